@@ -1,0 +1,16 @@
+"""magfem: finite-element simulation of untethered hard-magnetic soft robots.
+
+Stages (one module or package each, following the data flow of DESIGN.md):
+``case`` (validated TOML input) -> ``geometry`` (gmsh robots and field
+sources) -> ``field`` (magnetostatics, waveforms, field models) ->
+``material`` + ``mechanics`` (finite-strain dynamics) -> observers/output.
+"""
+
+from __future__ import annotations
+
+try:  # the PyPI wheel orders MPI ahead of the compiled bindings
+    import dolfinx_solver  # noqa: F401
+except ImportError:  # another dolfinx 0.11 install (conda-forge, source)
+    pass
+
+__version__ = "0.1.0"

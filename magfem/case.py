@@ -1,0 +1,192 @@
+"""A simulation case: a TOML file validated into one frozen :class:`Case`.
+
+Each top-level table maps one-to-one onto the frozen dataclass of the stage
+that owns it:
+
+=============== ======================================= =====================
+table           dataclass                               owner module
+=============== ======================================= =====================
+``[robot]``     :class:`magfem.geometry.spec.RobotSpec` geometry
+``[mesh]``      :class:`magfem.geometry.spec.MeshSpec`  geometry
+``[field]``     :class:`magfem.field.spec.FieldSpec`    field
+``[material]``  ``magfem.mechanics.spec.MaterialSpec``  mechanics
+``[time]``      ``magfem.mechanics.spec.TimeSpec``      mechanics
+``[solver]``    ``magfem.mechanics.spec.SolverSpec``    mechanics
+``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
+``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
+``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
+=============== ======================================= =====================
+
+Quantities are SI numbers or strings with units (``"80 um"``), converted
+once here. Every problem raises :class:`magfem.config.CaseError` whose
+message names the file, the key, the value and what is allowed. Values can
+be overridden from the command line with ``--set table.key=value``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from magfem.config import MISSING, CaseError, check_keys, from_table, to_table
+from magfem.field.spec import FieldSpec
+from magfem.geometry.spec import MeshSpec, RobotSpec
+from magfem.mechanics.spec import (
+    ContactSpec,
+    EnvironmentSpec,
+    MaterialSpec,
+    OutputSpec,
+    SolverSpec,
+    TimeSpec,
+)
+
+__all__ = ["Case", "apply_overrides", "load_case", "parse_case", "write_resolved_case"]
+
+
+@dataclass(frozen=True)
+class Case:
+    """Everything a run needs, validated, in SI units."""
+
+    name: str
+    robot: RobotSpec
+    mesh: MeshSpec
+    material: MaterialSpec
+    field: FieldSpec = field(default_factory=FieldSpec)
+    time: TimeSpec = field(default_factory=TimeSpec)
+    solver: SolverSpec = field(default_factory=SolverSpec)
+    contact: ContactSpec = field(default_factory=ContactSpec)
+    environment: EnvironmentSpec = field(default_factory=EnvironmentSpec)
+    output: OutputSpec = field(default_factory=OutputSpec)
+    description: str = ""
+
+
+def _check_consistency(case: Case) -> None:
+    """Checks that involve several tables."""
+    feature = case.robot.min_feature
+    if case.mesh.size > feature:
+        raise CaseError(
+            "mesh.size",
+            case.mesh.size,
+            f"element size is larger than the robot's smallest in-plane dimension "
+            f"({feature:g} m); choose mesh.size <= {feature:g}",
+        )
+
+
+def parse_case(data: Mapping[str, Any]) -> Case:
+    """Validate a parsed TOML document into a :class:`Case` (no file involved)."""
+    if not data:
+        raise CaseError("(file)", MISSING, "the case is empty; it needs at least name, [robot], [mesh], [material]")
+    check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
+    kwargs: dict[str, Any] = {}
+    for f in dataclasses.fields(Case):
+        if f.name not in data:
+            if f.default is MISSING and f.default_factory is MISSING:
+                raise CaseError(f.name, MISSING, "missing required " + ("key" if f.name == "name" else "table"))
+            continue
+        raw = data[f.name]
+        if f.name in ("name", "description"):
+            if not isinstance(raw, str) or (f.name == "name" and not raw.strip()):
+                raise CaseError(f.name, raw, "must be a non-empty string")
+            kwargs[f.name] = raw
+            continue
+        if not isinstance(raw, Mapping):
+            raise CaseError(f.name, raw, "must be a table")
+        spec_type = _spec_types()[f.name]
+        kwargs[f.name] = from_table(spec_type, raw, f.name)
+    case = Case(**kwargs)
+    _check_consistency(case)
+    return case
+
+
+def _spec_types() -> dict[str, type]:
+    return {
+        "robot": RobotSpec,
+        "mesh": MeshSpec,
+        "material": MaterialSpec,
+        "field": FieldSpec,
+        "time": TimeSpec,
+        "solver": SolverSpec,
+        "contact": ContactSpec,
+        "environment": EnvironmentSpec,
+        "output": OutputSpec,
+    }
+
+
+def _parse_override_value(text: str) -> Any:
+    """TOML value if it parses as one (numbers, booleans, arrays), else the raw string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str, Any]:
+    """Apply ``table.key=value`` overrides to a parsed TOML document (copy).
+
+    ``value`` is read as a TOML value when it is one (``3``, ``true``,
+    ``[1, 0, 0]``, ``"2 mT"``) and as a plain string otherwise (``2mT``).
+    Arrays of tables are addressed by index: ``field.sources.0.frequency=50Hz``.
+    """
+    import copy
+
+    out = copy.deepcopy(data)
+    for item in overrides:
+        if "=" not in item:
+            raise CaseError("--set", item, "expected KEY=VALUE, e.g. time.end=0.1")
+        key, value = item.split("=", 1)
+        parts = key.strip().split(".")
+        node: Any = out
+        for i, part in enumerate(parts[:-1]):
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise CaseError("--set " + key, value, f"'{part}' is not an index of {'.'.join(parts[:i])}")
+                node = node[int(part)]
+            else:
+                node = node.setdefault(part, {})
+            if not isinstance(node, dict | list):
+                raise CaseError("--set " + key, value, f"'{'.'.join(parts[: i + 1])}' is not a table")
+        if isinstance(node, list):
+            raise CaseError("--set " + key, value, "cannot set a whole array element")
+        node[parts[-1]] = _parse_override_value(value)
+    return out
+
+
+def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
+    """Read, override and validate a case file.
+
+    Raises:
+        CaseError: with the file name in the message, for every bad input
+            (missing file, TOML syntax, unknown key, unit, range, ...).
+    """
+    path = Path(path)
+    source = str(path)
+    if not path.is_file():
+        raise CaseError("(file)", MISSING, "no such case file" if not path.exists() else "not a file", source)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise CaseError("(file)", MISSING, f"cannot read: {err}", source) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise CaseError("(file)", MISSING, f"TOML syntax error: {err}", source) from None
+    try:
+        return parse_case(apply_overrides(data, overrides))
+    except CaseError as err:
+        raise err.with_source(source) from None
+
+
+def write_resolved_case(case: Case, path: str | Path) -> Path:
+    """Write the case with all defaults filled in, SI numbers, as TOML."""
+    import tomli_w
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = to_table(case)
+    header = "# Resolved case written by magfem: every value in SI units, defaults filled in.\n"
+    path.write_text(header + tomli_w.dumps(table), encoding="utf-8")
+    return path

@@ -1,0 +1,83 @@
+"""Run a gmsh model builder on rank 0 and distribute the mesh with named groups.
+
+This is the one place where a gmsh session is opened. A *builder* is a
+function ``builder(gmsh_module) -> None`` that, on rank 0, adds geometry and
+physical groups (by name) to the current model and generates the mesh. The
+resulting :class:`dolfinx.io.gmsh.MeshData` carries ``physical_groups`` by
+name; regions are looked up by those names, never by integer tags.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+__all__ = ["GmshError", "build_mesh"]
+
+
+class GmshError(RuntimeError):
+    """gmsh failed to build or mesh a model (message from rank 0)."""
+
+
+def build_mesh(
+    builder: Callable[[Any], None],
+    comm: MPI.Comm,
+    *,
+    gdim: int,
+    name: str = "model",
+    msh_path: Path | str | None = None,
+    verbosity: int = 0,
+) -> Any:
+    """Build a gmsh model on rank 0 with ``builder`` and distribute it.
+
+    Args:
+        builder: adds geometry, physical groups and generates the mesh;
+            called on rank 0 inside an initialised gmsh session.
+        comm: communicator the dolfinx mesh lives on (collective).
+        gdim: geometric dimension of the dolfinx mesh (2 for (r, z) or strips).
+        name: gmsh model name.
+        msh_path: if given, rank 0 also writes the gmsh ``.msh`` file there.
+        verbosity: gmsh ``General.Verbosity`` (0 silent, 5 debug).
+
+    Returns:
+        ``dolfinx.io.gmsh.MeshData`` (mesh, cell/facet/ridge tags, physical groups).
+
+    Raises:
+        GmshError: on every rank, if the builder or gmsh failed on rank 0.
+    """
+    import gmsh
+    from dolfinx import mesh as dmesh
+    from dolfinx.io import gmsh as gmshio
+
+    error: str | None = None
+    if comm.rank == 0:
+        initialized_here = not gmsh.isInitialized()
+        if initialized_here:
+            gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 1 if verbosity else 0)
+        gmsh.option.setNumber("General.Verbosity", verbosity)
+        gmsh.model.add(name)
+        try:
+            builder(gmsh)
+            if msh_path is not None:
+                Path(msh_path).parent.mkdir(parents=True, exist_ok=True)
+                gmsh.write(str(msh_path))
+        except Exception as err:  # reported collectively below
+            error = f"{type(err).__name__}: {err}"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        if comm.rank == 0:
+            gmsh.model.remove()
+        raise GmshError(f"building '{name}' failed: {error}")
+    partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)
+    try:
+        data = gmshio.model_to_mesh(
+            gmsh.model if comm.rank == 0 else None, comm, 0, gdim=gdim, partitioner=partitioner
+        )
+    finally:
+        if comm.rank == 0:
+            gmsh.model.remove()
+    return data

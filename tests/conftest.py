@@ -1,0 +1,48 @@
+"""Shared fixtures. Tests run serially and under ``mpirun -n 2``.
+
+Under MPI every rank runs the same tests in the same order; tests that
+only make sense on one rank are marked ``@pytest.mark.serial`` and skipped
+when the world communicator has more than one rank.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+import magfem  # noqa: F401  (orders MPI ahead of dolfinx when the wheel is installed)
+from mpi4py import MPI
+
+from magfem.parallel import shared_directory
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def pytest_collection_modifyitems(config, items):
+    if MPI.COMM_WORLD.size > 1:
+        skip = pytest.mark.skip(reason="serial-only test (MPI world size > 1)")
+        for item in items:
+            if "serial" in item.keywords:
+                item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def comm() -> MPI.Comm:
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture
+def shared_tmp(comm):
+    """A temporary directory common to all ranks (tmp_path differs per rank)."""
+    path = shared_directory(comm, prefix="magfem-test-")
+    yield path
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def repo() -> Path:
+    return REPO
