@@ -142,6 +142,8 @@ def parse_quantity(value: object, unit: str) -> float:
         raise UnitError(f"cannot read a number in '{value}'")
     number = float(m.group(1))
     given = m.group(2)
+    if not given:  # a number written as a string is SI, like a bare number
+        return number
     scale, dim = parse_unit(given)
     want_scale, want_dim = parse_unit(unit)
     if dim != want_dim:

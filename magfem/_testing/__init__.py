@@ -1,0 +1,1 @@
+"""Test-suite support that must be importable under mpirun (not user API)."""

@@ -1,0 +1,178 @@
+"""The ``magfem`` command line.
+
+    magfem check CASE [--set KEY=VALUE ...]     validate a case, print its summary
+    magfem mesh  CASE [--out DIR]               build the robot mesh, write DIR/<name>.msh
+    magfem field CASE [--out DIR]               solve the applied field, write VTX/CSV/PNG
+    magfem run   CASE [--out DIR]               mesh + field + dynamics, write all outputs
+
+Safe under ``mpirun -n N``: every rank parses the case and takes part in the
+collective work, only rank 0 prints. Bad input gives one line on stderr,
+``magfem: error: FILE: KEY = VALUE: what is allowed``, and exit status 2,
+with no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from magfem.config import CaseError
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from magfem.case import Case
+
+__all__ = ["main"]
+
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+
+
+def _comm() -> MPI.Comm:
+    import magfem  # noqa: F401  (MPI before dolfinx)
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+def _say(comm: MPI.Comm, *args: object) -> None:
+    from magfem.parallel import rank0_print
+
+    rank0_print(*args, comm=comm)
+
+
+def _outdir(args: argparse.Namespace, case: Case) -> Path:
+    return Path(args.out) if args.out else Path("output") / case.name
+
+
+def _summary(case: Case) -> str:
+    r, m = case.robot, case.mesh
+    lines = [
+        f"case      {case.name}" + (f" — {case.description}" if case.description else ""),
+        f"robot     {r.shape}, thickness {r.thickness * 1e6:g} um, smallest feature "
+        f"{r.min_feature * 1e3:g} mm",
+        f"mesh      {m.model}, size {m.size * 1e3:g} mm, {m.layers} layer(s)",
+        f"field     {len(case.field.sources)} source(s), model {case.field.model}",
+    ]
+    return "\n".join(lines)
+
+
+def _cmd_check(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+    _say(comm, _summary(case))
+    _say(comm, f"{args.case}: OK")
+    return 0
+
+
+def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+    from magfem.geometry.robot_mesh import create_robot_mesh
+
+    out = Path(args.out) if args.out else Path("meshes")
+    msh = out / f"{case.name}.msh"
+    t0 = time.perf_counter()
+    rm = create_robot_mesh(case.robot, case.mesh, comm, msh_path=msh)
+    ncells = rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global
+    _say(comm, _summary(case))
+    _say(comm, f"meshed    {ncells} cells in {time.perf_counter() - t0:.2f} s on {comm.size} rank(s)")
+    _say(comm, "groups    " + ", ".join(sorted(rm.groups)))
+    _say(comm, f"wrote     {msh}")
+    return 0
+
+
+def _cmd_field(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+    from magfem.field.run import run_field
+
+    outdir = _outdir(args, case)
+    _write_resolved(case, outdir, comm)
+    written = run_field(case, outdir, comm)
+    for label, path in written.items():
+        _say(comm, f"wrote     {label}: {path}")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+    from magfem.mechanics import simulate
+
+    outdir = _outdir(args, case)
+    _say(comm, _summary(case))
+    resolved = _write_resolved(case, outdir, comm)
+    _say(comm, f"wrote     resolved case: {resolved}")
+    t0 = time.perf_counter()
+    result = simulate(case, outdir, comm, progress=not args.quiet)
+    _say(comm, f"finished  in {time.perf_counter() - t0:.1f} s on {comm.size} rank(s)")
+    for label, path in result.files.items():
+        _say(comm, f"wrote     {label}: {path}")
+    return 0
+
+
+def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
+    from magfem.case import write_resolved_case
+
+    path = outdir / "case.resolved.toml"
+    if comm.rank == 0:
+        write_resolved_case(case, path)
+    comm.barrier()
+    return path
+
+
+_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "field": _cmd_field, "run": _cmd_run}
+
+
+def _parser() -> argparse.ArgumentParser:
+    from magfem import __version__
+
+    p = argparse.ArgumentParser(
+        prog="magfem",
+        description="Finite-element simulation of untethered hard-magnetic soft robots.",
+    )
+    p.add_argument("--version", action="version", version=f"magfem {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    helps = {
+        "check": "validate a case file without running it",
+        "mesh": "build the robot mesh and write the .msh file (default under meshes/)",
+        "field": "solve the applied magnetic field and write VTX/CSV/PNG",
+        "run": "run the case end to end (mesh, field, dynamics, outputs)",
+    }
+    for name, text in helps.items():
+        s = sub.add_parser(name, help=text, description=text)
+        s.add_argument("case", help="case file (TOML)")
+        s.add_argument(
+            "--set",
+            dest="overrides",
+            action="append",
+            default=[],
+            metavar="KEY=VALUE",
+            help="override a case value, e.g. --set field.sources.0.waveform.frequency=50Hz",
+        )
+        if name != "check":
+            s.add_argument("--out", help="output directory (default output/<case name>)")
+        if name == "run":
+            s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``magfem`` console script; returns the exit status."""
+    args = _parser().parse_args(argv)
+    comm = _comm()
+    try:
+        from magfem.case import load_case
+
+        case = load_case(args.case, args.overrides)
+        return _COMMANDS[args.command](args, case, comm)
+    except CaseError as err:
+        if comm.rank == 0:
+            print(f"magfem: error: {err}", file=sys.stderr, flush=True)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        if comm.rank == 0:
+            print("magfem: interrupted; outputs written so far are kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
