@@ -82,7 +82,13 @@ def quantity(
     le: float | None = None,
     doc: str = "",
 ) -> Any:
-    """A float field given in ``unit`` (SI), with optional bounds."""
+    """A float field given in ``unit`` (SI), with optional bounds.
+
+    The default may be written with its unit (``quantity("1 mm", "m")``); it
+    is converted to SI here, once.
+    """
+    if isinstance(default, str):
+        default = parse_quantity(default, unit)
     meta = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "doc": doc}
     return dataclasses.field(default=default, metadata=meta)
 
