@@ -1,0 +1,269 @@
+"""Case tables of the mechanics stage: material, time, solver, contact, environment, output.
+
+Each table maps one-to-one onto a frozen dataclass below (see
+:mod:`magfem.config`). Every table except ``[material]`` is fully defaulted,
+so a case only states what differs from the defaults. Values are SI.
+
+``[material]`` (hard-magnetic neo-Hookean, :mod:`magfem.material`)::
+
+    [material]
+    shear_modulus = "115 kPa"
+    density = "2130 kg/m^3"
+    remanence = "123 kA/m"          # |M| of the remanent magnetization
+    direction = "normal"            # "normal", "-normal" or a vector [mx, my, mz]
+    [[material.regions]]            # optional per-cell-group overrides
+    group = "arm_left"
+    direction = "-normal"
+
+``direction = "normal"`` is the membrane normal of the reference
+configuration, +z (robots lie in the x-y plane, thickness along +z; for 2D
+strips, side views in (x, z), it is the second in-plane axis).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from magfem.config import (
+    CaseError,
+    build_fields,
+    integer,
+    option,
+    quantity,
+    vector,
+)
+from magfem.units import UnitError, parse_quantity
+
+__all__ = [
+    "ContactSpec",
+    "EnvironmentSpec",
+    "MagnetRegionSpec",
+    "MaterialSpec",
+    "OutputSpec",
+    "SolverSpec",
+    "TimeSpec",
+    "parse_direction",
+]
+
+Direction = str | tuple[float, ...]
+"""``"normal"``, ``"-normal"`` or a 3-vector (any length, normalised on use)."""
+
+_NORMAL_WORDS = ("normal", "+normal", "-normal")
+
+
+def parse_direction(raw: Any, key: str) -> Direction:
+    """Validate a magnetization direction: ``"normal"``, ``"-normal"`` or a nonzero 3-vector.
+
+    Returns ``"normal"``/``"-normal"`` or a tuple of three floats (not normalised).
+
+    Raises:
+        CaseError: naming ``key`` for anything else.
+    """
+    allowed = 'must be "normal", "-normal" or a nonzero vector [mx, my, mz]'
+    if isinstance(raw, str):
+        word = raw.strip()
+        if word not in _NORMAL_WORDS:
+            raise CaseError(key, raw, allowed)
+        return "-normal" if word == "-normal" else "normal"
+    if isinstance(raw, list | tuple) and len(raw) == 3:
+        try:
+            vec = tuple(parse_quantity(v, "") for v in raw)
+        except UnitError:
+            raise CaseError(key, raw, allowed) from None
+        if not any(vec) or not all(math.isfinite(v) for v in vec):
+            raise CaseError(key, raw, allowed)
+        return vec
+    raise CaseError(key, raw, allowed)
+
+
+@dataclass(frozen=True)
+class MagnetRegionSpec:
+    """Remanent magnetization of one named cell group, overriding ``[material]``."""
+
+    group: str = option(doc="name of a cell group of the robot mesh (e.g. arm_left)")
+    remanence: float | None = quantity(None, "A/m", ge=0.0, doc="|M| in A/m (default: material's)")
+    direction: Direction | None = field(
+        default=None, metadata={"doc": 'direction ("normal", "-normal" or a vector)'}
+    )
+
+    @classmethod
+    def __from_table__(cls, table: Mapping[str, Any], where: str) -> MagnetRegionSpec:
+        fixed: dict[str, Any] = {}
+        if "direction" in table:
+            fixed["direction"] = parse_direction(table["direction"], f"{where}.direction")
+        rest = {k: v for k, v in table.items() if k != "direction"}
+        return build_fields(cls, rest, where, **fixed)
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """``[material]``: hard-magnetic neo-Hookean solid (see :mod:`magfem.material`).
+
+    ψ = μ/2 (J^(-2/3) tr C − 3) + K/2 (J − 1)² − (F M̃)·B_a(x, t).
+    """
+
+    shear_modulus: float = quantity(unit="Pa", gt=0.0, doc="μ (Pa)")
+    density: float = quantity(unit="kg/m^3", gt=0.0, doc="ρ in the reference configuration")
+    bulk_modulus: float | None = quantity(None, "Pa", gt=0.0, doc="K (Pa); default 100 μ")
+    remanence: float = quantity(0.0, "A/m", ge=0.0, doc="|M̃| of the remanent magnetization")
+    direction: Direction = field(
+        default="normal", metadata={"doc": 'direction of M̃: "normal", "-normal" or a vector'}
+    )
+    regions: tuple[MagnetRegionSpec, ...] = ()
+    plane: str = option(
+        "strain",
+        ("strain", "stress"),
+        doc="2D strip models only: plane strain (wide arm, plate-like) or plane stress",
+    )
+
+    @classmethod
+    def __from_table__(cls, table: Mapping[str, Any], where: str) -> MaterialSpec:
+        fixed: dict[str, Any] = {}
+        if "direction" in table:
+            fixed["direction"] = parse_direction(table["direction"], f"{where}.direction")
+        rest = {k: v for k, v in table.items() if k != "direction"}
+        return build_fields(cls, rest, where, **fixed)
+
+    def __post_init__(self) -> None:
+        seen: set[str] = set()
+        for i, region in enumerate(self.regions):
+            if region.group in seen:
+                raise CaseError(f"regions[{i}].group", region.group, "group listed twice")
+            seen.add(region.group)
+        if self.bulk_modulus is not None and self.bulk_modulus < self.shear_modulus:
+            raise CaseError(
+                "bulk_modulus",
+                self.bulk_modulus,
+                "must be >= shear_modulus (a nearly incompressible elastomer has K >> μ)",
+            )
+
+    @property
+    def bulk(self) -> float:
+        """K in Pa (default 100 μ)."""
+        return self.bulk_modulus if self.bulk_modulus is not None else 100.0 * self.shear_modulus
+
+
+SCHEMES = ("generalized_alpha", "hht", "newmark", "quasi_static")
+
+
+@dataclass(frozen=True)
+class TimeSpec:
+    """``[time]``: time span, integrator and adaptive stepping.
+
+    Schemes: ``generalized_alpha`` (Chung–Hulbert, spectral radius ``rho_inf``),
+    ``hht`` (Hilber–Hughes–Taylor, ``rho_inf`` in [0.5, 1]), ``newmark``
+    (average acceleration, β = 1/4, γ = 1/2), ``quasi_static`` (no inertia;
+    the load follows the field's time history).
+    """
+
+    end: float = quantity(0.1, "s", gt=0.0, doc="end time")
+    start: float = quantity(0.0, "s", ge=0.0, doc="start time")
+    step: float = quantity(2.5e-4, "s", gt=0.0, doc="initial (nominal) time step")
+    min_step: float | None = quantity(None, "s", gt=0.0, doc="smallest step (default step/1024)")
+    max_step: float | None = quantity(None, "s", gt=0.0, doc="largest step (default step)")
+    scheme: str = option("generalized_alpha", SCHEMES)
+    rho_inf: float = quantity(0.5, "", ge=0.0, le=1.0, doc="spectral radius at infinite frequency")
+    adaptive: bool = True
+    cut_factor: float = quantity(0.5, "", gt=0.0, lt=1.0, doc="step multiplier after a failure")
+    grow_factor: float = quantity(1.5, "", ge=1.0, le=4.0, doc="step multiplier after easy steps")
+    easy_iterations: int = integer(4, ge=0, doc="Newton iterations <= this: a step is easy")
+    slow_iterations: int = integer(
+        10, ge=1, doc="Newton iterations at or above which the next step is cut"
+    )
+    max_cuts: int = integer(12, ge=0, doc="consecutive step cuts before giving up")
+
+    def __post_init__(self) -> None:
+        if self.end <= self.start:
+            raise CaseError("end", self.end, f"must be > start ({self.start:g} s)")
+        if self.min_step is not None and self.min_step > self.step:
+            raise CaseError("min_step", self.min_step, f"must be <= step ({self.step:g} s)")
+        if self.max_step is not None and self.max_step < self.step:
+            raise CaseError("max_step", self.max_step, f"must be >= step ({self.step:g} s)")
+        if self.scheme == "hht" and self.rho_inf < 0.5:
+            raise CaseError("rho_inf", self.rho_inf, "HHT-α needs rho_inf in [0.5, 1]")
+        if self.easy_iterations >= self.slow_iterations:
+            raise CaseError(
+                "easy_iterations",
+                self.easy_iterations,
+                f"must be < slow_iterations ({self.slow_iterations})",
+            )
+
+    @property
+    def smallest_step(self) -> float:
+        """Lower bound of the adaptive step (s)."""
+        return self.min_step if self.min_step is not None else self.step / 1024.0
+
+    @property
+    def largest_step(self) -> float:
+        """Upper bound of the adaptive step (s)."""
+        return self.max_step if self.max_step is not None else self.step
+
+
+@dataclass(frozen=True)
+class SolverSpec:
+    """``[solver]``: Newton (PETSc SNES) and linear solver; extra PETSc options pass through.
+
+    ``petsc_options`` entries are given without prefix, e.g.
+    ``petsc_options = { snes_monitor = "" , mat_mumps_icntl_14 = 200 }``,
+    and override the options derived from the other keys.
+    """
+
+    linear_solver: str = option("mumps", ("mumps", "superlu_dist", "petsc"))
+    line_search: str = option("basic", ("basic", "bt", "l2", "cp"))
+    rtol: float = quantity(1e-8, "", gt=0.0, lt=1.0, doc="Newton relative residual tolerance")
+    atol: float = quantity(1e-12, "N", ge=0.0, doc="Newton absolute residual tolerance (N)")
+    stol: float = quantity(1e-10, "", ge=0.0, lt=1.0, doc="Newton relative step tolerance")
+    max_iterations: int = integer(15, ge=1, doc="Newton iterations before a step counts as failed")
+    reuse_jacobian: bool = False
+    quadrature_degree: int | None = integer(
+        None, ge=1, le=12, doc="quadrature degree (default 2 × element order)"
+    )
+    petsc_options: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for key, value in self.petsc_options.items():
+            if not isinstance(value, str | int | float | bool):
+                raise CaseError(f"petsc_options.{key}", value, "must be a string or number")
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """``[contact]``: ground plane contact (penalty, regularised Coulomb friction).
+
+    The contact model lives in :mod:`magfem.mechanics.contact` (owned by the
+    verification work); it may extend this table with its own parameters.
+    """
+
+    ground: bool = False
+    height: float = quantity(0.0, "m", doc="z of the ground plane (y for 2D strips)")
+    friction: float = quantity(0.5, "", ge=0.0, doc="Coulomb friction coefficient")
+
+
+@dataclass(frozen=True)
+class EnvironmentSpec:
+    """``[environment]``: gravity and supports.
+
+    ``clamped`` lists named groups (facets or cells) whose displacement is
+    zero (the ``clamp`` patch bonded to the substrate); an empty list and no
+    ``fixed_point`` makes a free body. ``fixed_point`` pins the mesh nodes
+    within ``fixed_radius`` of a reference point (robots fixed at their middle).
+    """
+
+    gravity: tuple[float, ...] = vector((0.0, 0.0, -9.8), "m/s^2")
+    clamped: tuple[str, ...] = ("clamp",)
+    fixed_point: tuple[float, ...] | None = vector(None, "m")
+    fixed_radius: float = quantity(
+        0.0, "m", ge=0.0, doc="pin nodes within this distance of fixed_point (0: nearest node)"
+    )
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """``[output]``: what is written while the run goes."""
+
+    csv: bool = True
+    vtx_every: int = integer(10, ge=0, doc="write the displacement to VTX every N steps (0: never)")
+    plot: bool = True
