@@ -240,6 +240,18 @@ class ContactSpec:
     ground: bool = False
     height: float = quantity(0.0, "m", doc="z of the ground plane (y for 2D strips)")
     friction: float = quantity(0.5, "", ge=0.0, doc="Coulomb friction coefficient")
+    penalty: float = quantity(
+        10.0, "", gt=0.0, doc="κ: penalty stiffness k_n = κ μ / thickness (Pa/m)"
+    )
+    penalty_onset: float = quantity(
+        1e-3, "", gt=0.0, le=1.0, doc="width of the C¹ onset of the penalty ramp / thickness"
+    )
+    damping: float = quantity(
+        1.0, "", ge=0.0, doc="contact dashpot as a fraction of critical (membrane on k_n)"
+    )
+    regularization_velocity: float = quantity(
+        1e-3, "m/s", gt=0.0, doc="v_ε of the regularised Coulomb friction"
+    )
 
 
 @dataclass(frozen=True)

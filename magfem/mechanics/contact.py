@@ -1,0 +1,328 @@
+r"""Ground contact: penalty on penetration with regularised Coulomb friction.
+
+A rigid, flat ground occupies ``x[vertical] < ground_height``. Every point
+of the body's boundary on which the contact measure is integrated carries a
+traction per *reference* area
+
+.. math::
+
+    \mathbf t = p_n\,\mathbf e_v
+        - \mu_f\,p_n\,\frac{\mathbf v_t}{\sqrt{\mathbf v_t\cdot\mathbf v_t + v_\varepsilon^2}},
+    \qquad
+    p_n = \big\langle k_n\,r(\delta) + c_n\,s(\delta)\,\dot\delta \big\rangle_+ ,
+
+with the penetration :math:`\delta = h_g - x_v` (m), its rate
+:math:`\dot\delta = -v_v` (m/s), the tangential velocity
+:math:`\mathbf v_t = \mathbf v - v_v\mathbf e_v` and
+:math:`\langle a\rangle_+ = \max(a, 0)`.
+
+Normal law (penalty).
+    :math:`r` is a C¹ ramp that is *exactly zero for a positive gap* (a
+    sqrt-smoothed penalty pulls on the body from afar, see
+    FENICSX.md):
+
+    .. math::
+
+        r(\delta) = 0 \ (\delta \le 0),\quad
+        \frac{\delta^2}{2\delta_0}\ (0 < \delta < \delta_0),\quad
+        \delta - \frac{\delta_0}{2}\ (\delta \ge \delta_0).
+
+    The onset width :math:`\delta_0` removes the kink of the plain ramp
+    (Newton then sees a continuous tangent when a quadrature point crosses
+    the ground). The stiffness is scaled with the membrane,
+    :math:`k_n = \kappa\,\mu/h` (Pa/m), so that a pressure ``p`` penetrates
+    by ``p h / (κ μ)``: 1/κ of the shear strain the same pressure would
+    cause in the layer. This keeps the contact stiffness below the
+    through-thickness stiffness of one element (≈ 100 μ/h for K = 100 μ)
+    for κ ≲ 100, which is what keeps a thin P2 plate from inverting its
+    bottom layer on impact; results converge as κ grows (see
+    ``docs/verification.md``). The static penetration under a pressure
+    ``p`` is the inverse of ``r``: :func:`magfem.mechanics.reference.penalty_penetration`.
+
+Impact damping.
+    :math:`c_n\,s(\delta)\,\dot\delta` is a contact dashpot that switches on
+    continuously with the penetration (:math:`s = \min(\delta/\delta_0, 1)`
+    for :math:`\delta > 0`, else 0; the Hunt–Crossley idea of a damping force
+    that vanishes at first touch). :math:`c_n = 2\zeta\sqrt{k_n\rho h}` is
+    ζ times the critical damping of the membrane (mass ρh per area) on the
+    penalty spring. It dissipates the impact energy of a falling plate in the
+    contact layer instead of letting it ring through the stiff thickness
+    mode. The bracket keeps the pressure compressive (no adhesion while
+    the body lifts off).
+
+Friction (regularised Coulomb).
+    The tangential traction is :math:`\mu_f p_n` opposite to the sliding
+    velocity when :math:`|\mathbf v_t| \gg v_\varepsilon`, and viscous
+    (:math:`\mu_f p_n \mathbf v_t / v_\varepsilon`) near sticking. A block
+    sliding at speed ``v`` then decelerates at
+    :math:`\mu_f g\,v/\sqrt{v^2 + v_\varepsilon^2}`, within
+    :math:`(v_\varepsilon/v)^2/2` of :math:`\mu_f g` (Wriggers,
+    *Computational Contact Mechanics*, 2nd ed., Springer 2006, §5.2 for the
+    penalty and regularised-friction laws).
+
+Both laws are written with the *current* position and velocity as UFL
+expressions of the unknown displacement, so ``ufl.derivative`` gives their
+exact linearisation (including the dependence of the velocity on the
+displacement through the time integrator). Tractions are per reference
+area: for the membranes here (stretch ≈ 1 at the contact) the difference
+from the current area is the in-plane strain, ≲ 1e-2.
+
+Contract with the solver (``problem.py`` calls this when
+``case.contact.ground`` is true)::
+
+    law = create_ground_contact_law(case.contact, shear_modulus=μ,
+                                    density=ρ, thickness=h)
+    contact = GroundContact(law, mesh, vertical=gdim - 1,
+                            ground_height=case.contact.height)
+    R = ... - contact.work(x, v, w, ds_contact)   # x = X + u, v = velocity
+
+    # or, in one call:
+    ground_contact_work(x, v, w, law, ds_contact, vertical=..., ground_height=...)
+
+``x`` (m) and ``v`` (m/s) are UFL vectors of length gdim evaluated where the
+integrator evaluates the residual (e.g. at :math:`t_{n+1-\alpha_f}` for
+generalized-α), ``w`` is the test function, ``ds_contact`` a boundary
+measure *with an explicit quadrature degree* (4 for P2; the whole boundary
+may be given, since the traction is exactly zero off the ground).
+:meth:`GroundContact.force_forms` gives scalar forms for the normal and
+tangential contact force (N, or N/m in a 2D strip) for the observers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import ufl
+from dolfinx import fem
+
+__all__ = [
+    "ContactParameters",
+    "GroundContact",
+    "GroundContactLaw",
+    "contact_stiffness",
+    "create_ground_contact_law",
+    "critical_contact_damping",
+    "ground_contact_work",
+    "penalty_ramp",
+]
+
+
+class ContactParameters(Protocol):
+    """What :func:`create_ground_contact_law` reads from the ``[contact]`` table.
+
+    ``magfem.mechanics.spec.ContactSpec`` provides these attributes.
+    """
+
+    @property
+    def friction(self) -> float:
+        """Coulomb coefficient μ_f (-)."""
+        ...
+
+    @property
+    def penalty(self) -> float:
+        """κ (-): k_n = κ μ / h."""
+        ...
+
+    @property
+    def penalty_onset(self) -> float:
+        """δ0 / h (-): width of the C¹ onset of the ramp."""
+        ...
+
+    @property
+    def damping(self) -> float:
+        """ζ (-): contact dashpot as a fraction of critical."""
+        ...
+
+    @property
+    def regularization_velocity(self) -> float:
+        """v_ε (m/s)."""
+        ...
+
+
+@dataclass(frozen=True)
+class GroundContactLaw:
+    """Constants of the ground contact law, SI units.
+
+    Attributes:
+        stiffness: penalty stiffness k_n (Pa/m = N/m³; N/m² per m in 2D).
+        onset: width δ0 > 0 of the C¹ onset of the penalty ramp (m).
+        damping: contact dashpot c_n (Pa·s/m) >= 0.
+        friction: Coulomb coefficient μ_f >= 0.
+        regularization_velocity: v_ε > 0 (m/s).
+    """
+
+    stiffness: float
+    onset: float
+    damping: float = 0.0
+    friction: float = 0.5
+    regularization_velocity: float = 1e-3
+
+    def __post_init__(self) -> None:
+        # programming errors only: user input is validated by ContactSpec
+        for name in ("stiffness", "onset", "regularization_velocity"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"GroundContactLaw.{name} must be finite and > 0, got {value!r}")
+        for name in ("damping", "friction"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"GroundContactLaw.{name} must be finite and >= 0, got {value!r}")
+
+
+def contact_stiffness(penalty: float, shear_modulus: float, thickness: float) -> float:
+    """Penalty stiffness k_n = κ μ / h (Pa/m).
+
+    Args:
+        penalty: κ (-), the ratio of contact stiffness to the layer's shear stiffness.
+        shear_modulus: μ (Pa).
+        thickness: membrane thickness h (m).
+    """
+    return penalty * shear_modulus / thickness
+
+
+def critical_contact_damping(stiffness: float, density: float, thickness: float) -> float:
+    """Critical damping 2 sqrt(k_n ρ h) (Pa·s/m) of a membrane of mass ρh per area on k_n."""
+    return 2.0 * math.sqrt(stiffness * density * thickness)
+
+
+def create_ground_contact_law(
+    spec: ContactParameters, *, shear_modulus: float, density: float, thickness: float
+) -> GroundContactLaw:
+    """The SI contact law of a ``[contact]`` table for a membrane of the given material.
+
+    Args:
+        spec: the validated ``[contact]`` table (``ContactSpec``).
+        shear_modulus: μ (Pa).
+        density: ρ (kg/m³).
+        thickness: membrane thickness h (m); the length that scales k_n and δ0.
+    """
+    k_n = contact_stiffness(spec.penalty, shear_modulus, thickness)
+    return GroundContactLaw(
+        stiffness=k_n,
+        onset=spec.penalty_onset * thickness,
+        damping=spec.damping * critical_contact_damping(k_n, density, thickness),
+        friction=spec.friction,
+        regularization_velocity=spec.regularization_velocity,
+    )
+
+
+def penalty_ramp(delta: Any, onset: Any) -> tuple[Any, Any]:
+    """C¹ ramp r(δ) and its switch s(δ) = r'(δ) (UFL).
+
+    Args:
+        delta: penetration δ (m), UFL scalar.
+        onset: δ0 > 0 (m), UFL scalar.
+
+    Returns:
+        ``(r, s)``: r in m, exactly 0 for δ <= 0; s in [0, 1].
+    """
+    inside = ufl.lt(delta, onset)
+    r = ufl.conditional(
+        ufl.le(delta, 0.0),
+        0.0,
+        ufl.conditional(inside, delta**2 / (2.0 * onset), delta - onset / 2.0),
+    )
+    s = ufl.conditional(ufl.le(delta, 0.0), 0.0, ufl.conditional(inside, delta / onset, 1.0))
+    return r, s
+
+
+class GroundContact:
+    """The ground contact law on one mesh, with its constants as ``fem.Constant``.
+
+    The constants can be changed in place with :meth:`update` (tightening the
+    penalty in a convergence study) without recompiling forms.
+
+    Args:
+        law: the contact constants.
+        mesh: the body's dolfinx mesh (gdim 2 or 3).
+        vertical: index of the vertical axis (1 for a 2D strip, 2 in 3D).
+        ground_height: position of the ground plane along ``vertical`` (m).
+    """
+
+    def __init__(
+        self, law: GroundContactLaw, mesh: Any, *, vertical: int, ground_height: float = 0.0
+    ) -> None:
+        gdim = mesh.geometry.dim
+        if not 0 <= vertical < gdim:
+            raise ValueError(f"vertical axis {vertical} outside 0..{gdim - 1}")
+        self.gdim = gdim
+        self.vertical = vertical
+        self.law = law
+        self.stiffness = fem.Constant(mesh, np.float64(law.stiffness))
+        self.onset = fem.Constant(mesh, np.float64(law.onset))
+        self.damping = fem.Constant(mesh, np.float64(law.damping))
+        self.friction = fem.Constant(mesh, np.float64(law.friction))
+        self.regularization_velocity = fem.Constant(mesh, np.float64(law.regularization_velocity))
+        self.ground_height = fem.Constant(mesh, np.float64(ground_height))
+
+    def update(self, law: GroundContactLaw) -> None:
+        """Set new constants in place (compiled forms stay valid)."""
+        self.law = law
+        for name in ("stiffness", "onset", "damping", "friction", "regularization_velocity"):
+            constant: Any = getattr(self, name)
+            constant.value = getattr(law, name)
+
+    def pressure(self, x: Any, v: Any) -> Any:
+        """Normal contact pressure p_n >= 0 (Pa per reference area), UFL scalar.
+
+        Args:
+            x: current position, UFL vector (gdim,) (m).
+            v: current velocity, UFL vector (gdim,) (m/s).
+        """
+        delta = self.ground_height - x[self.vertical]
+        r, s = penalty_ramp(delta, self.onset)
+        p = self.stiffness * r - self.damping * s * v[self.vertical]
+        return ufl.conditional(ufl.gt(p, 0.0), p, 0.0)
+
+    def traction(self, x: Any, v: Any) -> Any:
+        """Traction of the ground on the body (Pa per reference area), UFL vector (gdim,)."""
+        e_v = ufl.as_vector([1.0 if i == self.vertical else 0.0 for i in range(self.gdim)])
+        p_n = self.pressure(x, v)
+        v_t = v - v[self.vertical] * e_v
+        speed = ufl.sqrt(ufl.dot(v_t, v_t) + self.regularization_velocity**2)
+        return p_n * e_v - self.friction * p_n * v_t / speed
+
+    def work(self, x: Any, v: Any, w: Any, ds: Any) -> Any:
+        """Virtual work ∫ t·w dA of the ground traction (J per unit test field), UFL form.
+
+        Subtract it from a residual written as internal minus external work.
+        ``ds`` must carry an explicit quadrature degree.
+        """
+        return ufl.inner(self.traction(x, v), w) * ds
+
+    def force_forms(self, x: Any, v: Any, ds: Any) -> list[Any]:
+        """Scalar forms of the resultant ground force components (N; N/m in 2D), length gdim."""
+        t = self.traction(x, v)
+        return [t[i] * ds for i in range(self.gdim)]
+
+
+def ground_contact_work(
+    x: Any,
+    v: Any,
+    w: Any,
+    law: GroundContactLaw,
+    ds: Any,
+    *,
+    vertical: int,
+    ground_height: float = 0.0,
+) -> Any:
+    """Virtual work of the ground traction on test function ``w`` (UFL form).
+
+    One-call form of :class:`GroundContact` (constants not updatable).
+
+    Args:
+        x: current position X + u, UFL vector (gdim,) (m).
+        v: current velocity, UFL vector (gdim,) (m/s).
+        w: test function (vector, gdim).
+        law: contact constants.
+        ds: boundary measure with explicit quadrature degree.
+        vertical: index of the vertical axis.
+        ground_height: ground plane position along ``vertical`` (m).
+    """
+    mesh = w.ufl_function_space().mesh
+    return GroundContact(law, mesh, vertical=vertical, ground_height=ground_height).work(
+        x, v, w, ds
+    )
