@@ -218,8 +218,9 @@ class SolverSpec:
     stol: float = quantity(1e-10, "", ge=0.0, lt=1.0, doc="Newton relative step tolerance")
     max_iterations: int = integer(15, ge=1, doc="Newton iterations before a step counts as failed")
     reuse_jacobian: bool = False
+    degree: int = integer(2, ge=1, le=3, doc="Lagrange degree of the displacement (P2 default)")
     quadrature_degree: int | None = integer(
-        None, ge=1, le=12, doc="quadrature degree (default 2 × element order)"
+        None, ge=1, le=12, doc="quadrature degree (default 2 × degree)"
     )
     petsc_options: dict[str, Any] = field(default_factory=dict)
 
@@ -238,17 +239,13 @@ class ContactSpec:
     """
 
     ground: bool = False
-    height: float = quantity(0.0, "m", doc="z of the ground plane (y for 2D strips)")
-    friction: float = quantity(0.5, "", ge=0.0, doc="Coulomb friction coefficient")
-    penalty: float = quantity(
-        10.0, "", gt=0.0, doc="κ: penalty stiffness k_n = κ μ / thickness (Pa/m)"
-    )
+    ground_height: float = quantity(0.0, "m", doc="z of the ground plane (second axis for strips)")
+    friction: float = quantity(0.5, "", ge=0.0, doc="Coulomb friction coefficient μ_f")
+    penalty: float = quantity(10.0, "", gt=0.0, doc="κ: contact stiffness k_n = κ μ / thickness")
     penalty_onset: float = quantity(
-        1e-3, "", gt=0.0, le=1.0, doc="width of the C¹ onset of the penalty ramp / thickness"
+        1e-3, "", gt=0.0, doc="width of the C¹ onset of the penalty ramp, in thicknesses"
     )
-    damping: float = quantity(
-        1.0, "", ge=0.0, doc="contact dashpot as a fraction of critical (membrane on k_n)"
-    )
+    damping: float = quantity(1.0, "", ge=0.0, doc="contact dashpot, fraction of critical")
     regularization_velocity: float = quantity(
         1e-3, "m/s", gt=0.0, doc="v_ε of the regularised Coulomb friction"
     )
