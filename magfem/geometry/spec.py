@@ -533,11 +533,13 @@ class MeshSpec:
     """``[mesh]``: how the robot is discretised. Only ``size`` is required.
 
     ``element = "hex"`` (default) recombines the outline into quadrilaterals
-    and extrudes them into hexahedra (quadrilaterals for ``strip`` and
-    ``surface``); ``"wedge"`` keeps triangles and extrudes prisms (triangles
-    in 2D). ``order = 2`` gives second-order (curved) geometry, which
-    represents the round hubs and petals of ``star`` and ``flower`` far
-    better. ``tip_size`` refines the in-plane size towards the arm tips.
+    (gmsh blossom full-quad) and extrudes them into hexahedra
+    (quadrilaterals for ``strip`` and ``surface``); ``"wedge"`` keeps
+    triangles (``strip`` and ``surface`` only: dolfinx 0.11 cannot tag the
+    facets of prism meshes, so wedge solids are rejected). ``order = 2``
+    gives second-order (curved) geometry, which represents the round hubs
+    and petals of ``star`` and ``flower`` far better. ``tip_size`` refines the
+    in-plane size towards the arm tips.
     """
 
     size: float = quantity(unit="m", gt=0, doc="in-plane element size")
@@ -550,6 +552,14 @@ class MeshSpec:
     def __post_init__(self) -> None:
         if self.tip_size is not None and self.tip_size > self.size:
             raise CaseError("tip_size", self.tip_size, f"must be <= size ({self.size:g} m)")
+        if self.model == "solid" and self.element == "wedge":
+            # dolfinx 0.11's gmsh reader raises "Unsupported facet tag for type prism"
+            raise CaseError(
+                "element",
+                self.element,
+                "wedge (prism) solids cannot carry facet groups in dolfinx 0.11; use hex "
+                "(wedge gives triangles for the strip and surface models)",
+            )
         if self.model == "surface" and self.layers != 1:
             raise CaseError("layers", self.layers, "must be 1 for the surface model")
 
