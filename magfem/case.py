@@ -28,7 +28,8 @@ from __future__ import annotations
 import dataclasses
 import tomllib
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as _field
 from pathlib import Path
 from typing import Any
 
@@ -55,12 +56,12 @@ class Case:
     robot: RobotSpec
     mesh: MeshSpec
     material: MaterialSpec
-    field: FieldSpec = field(default_factory=FieldSpec)
-    time: TimeSpec = field(default_factory=TimeSpec)
-    solver: SolverSpec = field(default_factory=SolverSpec)
-    contact: ContactSpec = field(default_factory=ContactSpec)
-    environment: EnvironmentSpec = field(default_factory=EnvironmentSpec)
-    output: OutputSpec = field(default_factory=OutputSpec)
+    field: FieldSpec = _field(default_factory=FieldSpec)
+    time: TimeSpec = _field(default_factory=TimeSpec)
+    solver: SolverSpec = _field(default_factory=SolverSpec)
+    contact: ContactSpec = _field(default_factory=ContactSpec)
+    environment: EnvironmentSpec = _field(default_factory=EnvironmentSpec)
+    output: OutputSpec = _field(default_factory=OutputSpec)
     description: str = ""
 
 

@@ -272,8 +272,14 @@ def build_fields(cls: type[T], table: Mapping[str, Any], where: str, **fixed: An
 def to_table(obj: Any) -> Any:
     """Inverse of :func:`from_table`: plain TOML-serialisable data (SI numbers)."""
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        # a table whose allowed keys depend on a discriminator (e.g. a waveform's
+        # kind) lists the keys that apply via ``table_keys()``
+        names = getattr(obj, "table_keys", None)
+        keep = set(names()) if names is not None else None
         out = {}
         for f in dataclasses.fields(obj):
+            if keep is not None and f.name not in keep:
+                continue
             value = getattr(obj, f.name)
             if value is None:
                 continue

@@ -183,6 +183,10 @@ class WaveformSpec:
         check_keys(table, _WAVEFORM_COMMON + _WAVEFORM_KEYS[kind], where)
         return build_fields(cls, table, where)
 
+    def table_keys(self) -> tuple[str, ...]:
+        """Keys that apply to this kind (what :func:`magfem.config.to_table` writes)."""
+        return tuple(_WAVEFORM_COMMON) + tuple(_WAVEFORM_KEYS[self.kind])
+
     def __post_init__(self) -> None:
         k = self.kind
         if k in ("square", "sine", "square_rl") and self.frequency is None:
