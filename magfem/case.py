@@ -80,13 +80,19 @@ def _check_consistency(case: Case) -> None:
 def parse_case(data: Mapping[str, Any]) -> Case:
     """Validate a parsed TOML document into a :class:`Case` (no file involved)."""
     if not data:
-        raise CaseError("(file)", MISSING, "the case is empty; it needs at least name, [robot], [mesh], [material]")
+        raise CaseError(
+            "(file)",
+            MISSING,
+            "the case is empty; it needs at least name, [robot], [mesh], [material]",
+        )
     check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
     kwargs: dict[str, Any] = {}
     for f in dataclasses.fields(Case):
         if f.name not in data:
             if f.default is MISSING and f.default_factory is MISSING:
-                raise CaseError(f.name, MISSING, "missing required " + ("key" if f.name == "name" else "table"))
+                raise CaseError(
+                    f.name, MISSING, "missing required " + ("key" if f.name == "name" else "table")
+                )
             continue
         raw = data[f.name]
         if f.name in ("name", "description"):
@@ -144,12 +150,16 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
         for i, part in enumerate(parts[:-1]):
             if isinstance(node, list):
                 if not part.isdigit() or int(part) >= len(node):
-                    raise CaseError("--set " + key, value, f"'{part}' is not an index of {'.'.join(parts[:i])}")
+                    raise CaseError(
+                        "--set " + key, value, f"'{part}' is not an index of {'.'.join(parts[:i])}"
+                    )
                 node = node[int(part)]
             else:
                 node = node.setdefault(part, {})
             if not isinstance(node, dict | list):
-                raise CaseError("--set " + key, value, f"'{'.'.join(parts[: i + 1])}' is not a table")
+                raise CaseError(
+                    "--set " + key, value, f"'{'.'.join(parts[: i + 1])}' is not a table"
+                )
         if isinstance(node, list):
             raise CaseError("--set " + key, value, "cannot set a whole array element")
         node[parts[-1]] = _parse_override_value(value)
@@ -166,7 +176,9 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
     path = Path(path)
     source = str(path)
     if not path.is_file():
-        raise CaseError("(file)", MISSING, "no such case file" if not path.exists() else "not a file", source)
+        raise CaseError(
+            "(file)", MISSING, "no such case file" if not path.exists() else "not a file", source
+        )
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:

@@ -34,8 +34,9 @@ EXIT_FAILURE = 1
 
 
 def _comm() -> MPI.Comm:
-    import magfem  # noqa: F401  (MPI before dolfinx)
     from mpi4py import MPI
+
+    import magfem  # noqa: F401  (MPI before dolfinx)
 
     return MPI.COMM_WORLD
 
@@ -77,7 +78,9 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     rm = create_robot_mesh(case.robot, case.mesh, comm, msh_path=msh)
     ncells = rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global
     _say(comm, _summary(case))
-    _say(comm, f"meshed    {ncells} cells in {time.perf_counter() - t0:.2f} s on {comm.size} rank(s)")
+    _say(
+        comm, f"meshed    {ncells} cells in {time.perf_counter() - t0:.2f} s on {comm.size} rank(s)"
+    )
     _say(comm, "groups    " + ", ".join(sorted(rm.groups)))
     _say(comm, f"wrote     {msh}")
     return 0

@@ -117,7 +117,9 @@ def integer(
     return dataclasses.field(default=default, metadata={"ge": ge, "le": le, "doc": doc})
 
 
-def option(default: Any = _MISSING, choices: tuple[str, ...] | None = None, *, doc: str = "") -> Any:
+def option(
+    default: Any = _MISSING, choices: tuple[str, ...] | None = None, *, doc: str = ""
+) -> Any:
     """A string field restricted to ``choices`` (or free when None)."""
     return dataclasses.field(default=default, metadata={"choices": choices, "doc": doc})
 
@@ -227,7 +229,7 @@ def _convert(tp: Any, raw: Any, key: str, meta: Mapping[str, Any]) -> Any:
     raise TypeError(f"config: unsupported field type {tp!r} for {key}")  # programming error
 
 
-def from_table(cls: type[T], table: Mapping[str, Any], where: str = "") -> T:
+def from_table[T](cls: type[T], table: Mapping[str, Any], where: str = "") -> T:
     """Build dataclass ``cls`` from a TOML table, validating every key.
 
     Args:
@@ -244,7 +246,7 @@ def from_table(cls: type[T], table: Mapping[str, Any], where: str = "") -> T:
     return build_fields(cls, table, where)
 
 
-def build_fields(cls: type[T], table: Mapping[str, Any], where: str, **fixed: Any) -> T:
+def build_fields[T](cls: type[T], table: Mapping[str, Any], where: str, **fixed: Any) -> T:
     """The generic part of :func:`from_table` (callable from hooks).
 
     ``fixed`` holds values the caller already parsed (they bypass ``table``).

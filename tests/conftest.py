@@ -11,10 +11,9 @@ import shutil
 from pathlib import Path
 
 import pytest
-
-import magfem  # noqa: F401  (orders MPI ahead of dolfinx when the wheel is installed)
 from mpi4py import MPI
 
+import magfem  # noqa: F401  (orders MPI ahead of dolfinx when the wheel is installed)
 from magfem.parallel import shared_directory
 
 REPO = Path(__file__).resolve().parents[1]

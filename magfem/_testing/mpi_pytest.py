@@ -11,10 +11,10 @@ import sys
 
 
 def main(argv: list[str]) -> int:
-    import magfem  # noqa: F401  (MPI before dolfinx)
+    import pytest
     from mpi4py import MPI
 
-    import pytest
+    import magfem  # noqa: F401  (MPI before dolfinx)
 
     comm = MPI.COMM_WORLD
     log, args = argv[0], argv[1:]

@@ -49,6 +49,7 @@ def build_mesh(
         GmshError: on every rank, if the builder or gmsh failed on rank 0.
     """
     import gmsh
+    from dolfinx import graph
     from dolfinx import mesh as dmesh
     from dolfinx.io import gmsh as gmshio
 
@@ -72,7 +73,10 @@ def build_mesh(
         if comm.rank == 0:
             gmsh.model.remove()
         raise GmshError(f"building '{name}' failed: {error}")
-    partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)
+    # ghost cells across shared facets: interior-facet integrals (dS) need them
+    partitioner = dmesh.create_cell_partitioner(
+        graph.partitioner(), dmesh.GhostMode.shared_facet, 2
+    )
     try:
         data = gmshio.model_to_mesh(
             gmsh.model if comm.rank == 0 else None, comm, 0, gdim=gdim, partitioner=partitioner
