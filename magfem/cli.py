@@ -107,7 +107,7 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     t0 = time.perf_counter()
     result = simulate(case, outdir, comm, progress=not args.quiet)
     _say(comm, f"finished  in {time.perf_counter() - t0:.1f} s on {comm.size} rank(s)")
-    for label, path in result.files.items():
+    for label, path in result.paths.items():
         _say(comm, f"wrote     {label}: {path}")
     return 0
 

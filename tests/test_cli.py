@@ -1,0 +1,50 @@
+"""The command line: check and mesh on a small case (serial and mpirun -n 2)."""
+
+from __future__ import annotations
+
+import meshio
+import tomli_w
+
+from magfem.cli import main
+
+CASE = {
+    "name": "cli_probe",
+    "robot": {"shape": "rectangle", "thickness": "100 um", "length": "4 mm", "width": "1 mm"},
+    "mesh": {"size": "0.5 mm"},
+    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3"},
+}
+
+
+def _case_file(directory):
+    path = directory / "cli_probe.toml"
+    if not path.exists():
+        path.write_text(tomli_w.dumps(CASE))
+    return path
+
+
+def test_check_reports_ok(shared_tmp, comm, capsys):
+    path = _case_file(shared_tmp)
+    comm.barrier()
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    if comm.rank == 0:
+        assert out.strip().endswith(f"{path}: OK")
+        assert "rectangle, thickness 100 um" in out
+    else:
+        assert out == ""
+
+
+def test_mesh_writes_msh_with_named_groups(shared_tmp, comm, capsys):
+    path = _case_file(shared_tmp)
+    comm.barrier()
+    assert main(["mesh", str(path), "--out", str(shared_tmp)]) == 0
+    out = capsys.readouterr().out
+    msh = shared_tmp / "cli_probe.msh"
+    if comm.rank == 0:
+        assert f"wrote     {msh}" in out
+        m = meshio.read(msh)
+        # 4 mm x 1 mm at 0.5 mm, one layer of hexahedra: 8 x 2 cells
+        assert sum(len(b.data) for b in m.cells if b.type == "hexahedron") == 16
+        for name in ("arm", "bottom", "clamp", "tip", "top"):
+            assert name in m.field_data, name
+            assert f"{name}" in out
