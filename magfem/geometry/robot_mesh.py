@@ -15,7 +15,7 @@ Pipeline (:func:`create_robot_mesh`):
 3. Physical groups by name (see :class:`RobotMesh`), optional second-order
    geometry, element quality, then :func:`magfem.geometry.gmshio.build_mesh`
    distributes the mesh with its tags.
-4. ``position`` translates the whole robot (strip: (x, z) += (px, pz)).
+4. ``position`` translates the mesh nodes (strip: (x, z) += (px, pz)).
 
 Group names. Cells: one group per arm/petal/fin (``arm``; ``arm_left``,
 ``arm_right``; ``arm_1``..; ``petal_1``..; ``fin_left``, ``fin_right``),
@@ -306,10 +306,6 @@ def _make_builder(robot: RobotSpec, spec: MeshSpec, outline: Outline, info: dict
     def builder(gmsh: Any) -> None:
         build = {"solid": _build_solid, "surface": _build_surface, "strip": _build_strip}
         plan = build[spec.model](gmsh, outline, robot, spec)
-        px, py, pz = robot.position
-        shift = (px, pz, 0.0) if spec.model == "strip" else (px, py, pz)
-        if any(shift):
-            gmsh.model.occ.translate(gmsh.model.occ.getEntities(), *shift)
         gmsh.model.occ.synchronize()
         # mesh constraints and groups only now: an OCC synchronize may drop them
         for dim, named in ((plan.tdim, plan.cells), (plan.tdim - 1, plan.facets)):
@@ -331,6 +327,12 @@ def _make_builder(robot: RobotSpec, spec: MeshSpec, outline: Outline, info: dict
         gmsh.model.mesh.generate(plan.tdim)
         if spec.order == 2:
             gmsh.model.mesh.setOrder(2)
+        # ``position``: move the mesh nodes, not the geometry (an OCC translation
+        # would drop the structured-extrusion constraints)
+        px, py, pz = robot.position
+        sx, sy, sz = (px, pz, 0.0) if spec.model == "strip" else (px, py, pz)
+        if sx or sy or sz:
+            gmsh.model.mesh.affineTransform([1, 0, 0, sx, 0, 1, 0, sy, 0, 0, 1, sz])
         types = gmsh.model.mesh.getElementTypes(dim=plan.tdim)
         names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
         want = _EXPECTED_TYPES[(spec.model, spec.element)]

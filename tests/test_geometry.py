@@ -1,0 +1,263 @@
+"""Robot geometry: spec validation, every shape meshed, volumes, groups, arms (serial and MPI).
+
+References are independent of gmsh: exact outline areas (closed forms and
+an adaptive quadrature, :mod:`magfem.geometry.robots`), the spec's
+dimensions for arms and translations, and gmsh's own cell count on rank 0
+for the distributed mesh.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from magfem.config import CaseError, from_table, to_table
+from magfem.geometry.robot_mesh import MIN_QUALITY, create_robot_mesh, locate
+from magfem.geometry.spec import SHAPES, STRIP_SHAPES, MeshSpec, RobotSpec
+
+Q = 5  # volume quadrature: Gauss exact to degree 5 per direction = det J of Q2 hexahedra
+THICKNESS = 1e-4
+
+
+def robot(shape: str, **keys: object) -> RobotSpec:
+    return from_table(RobotSpec, {"shape": shape, "thickness": THICKNESS, **keys}, "robot")
+
+
+def meshspec(**keys: object) -> MeshSpec:
+    return from_table(MeshSpec, keys, "mesh")
+
+
+def measure(rm, comm) -> float:
+    """Global ∫ 1 dx (m³ solid, m² strip/surface)."""
+    dx = ufl.dx(domain=rm.mesh, metadata={"quadrature_degree": Q})
+    return comm.allreduce(fem.assemble_scalar(fem.form(1.0 * dx)), op=MPI.SUM)
+
+
+def owned_count(rm, name: str, comm) -> int:
+    """Global number of entities in a group (owned entities only, so no ghost counted twice)."""
+    dim, idx = locate(rm, name)
+    size_local = rm.mesh.topology.index_map(dim).size_local
+    return comm.allreduce(int(np.sum(idx < size_local)), op=MPI.SUM)
+
+
+# --- spec -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", list(SHAPES))
+def test_spec_round_trip(shape):
+    r = robot(shape)
+    assert from_table(RobotSpec, to_table(r), "robot") == r
+    assert r.min_feature > 0
+
+
+@pytest.mark.parametrize(
+    ("table", "key"),
+    [
+        ({"shape": "hexagon"}, "robot.shape"),
+        ({"shape": "rectangle", "arms": 4}, "robot.arms"),  # a key of another shape
+        ({"shape": "rectangle", "clamp_length": "20 mm"}, "robot.clamp_length"),
+        ({"shape": "trapezoid", "tip_width": "-1 mm"}, "robot.tip_width"),
+        ({"shape": "star", "arms": 7}, "robot.arms"),
+        ({"shape": "star", "hub_radius": "0.5 mm"}, "robot.hub_radius"),
+        ({"shape": "star", "clamp_radius": "3 mm"}, "robot.clamp_radius"),
+        ({"shape": "flower", "petals": 2}, "robot.petals"),
+        ({"shape": "flower", "centre_diameter": "3 mm"}, "robot.centre_diameter"),
+        ({"shape": "failure_triangle", "type": "IV"}, "robot.type"),
+        ({"shape": "manta", "wingspan": "3 mm"}, "robot.wingspan"),
+        ({"shape": "membrane", "thickness": "10 mm"}, "robot.thickness"),
+    ],
+)
+def test_bad_robot_names_key(table, key):
+    table = {"thickness": THICKNESS, **table}
+    with pytest.raises(CaseError) as err:
+        from_table(RobotSpec, table, "robot")
+    assert err.value.key == key
+
+
+def test_mesh_spec_checks():
+    assert meshspec(size="0.1 mm") == MeshSpec(size=1e-4)  # only size is required
+    with pytest.raises(CaseError, match="tip_size"):
+        meshspec(size="0.1 mm", tip_size="0.2 mm")
+    with pytest.raises(CaseError, match="element"):
+        meshspec(size="0.1 mm", element="wedge")  # prism solids: no facet tags in dolfinx 0.11
+    with pytest.raises(CaseError) as err:
+        create_robot_mesh(robot("star"), meshspec(size=1e-4, model="strip"), MPI.COMM_WORLD)
+    assert err.value.key == "mesh.model"
+    with pytest.raises(CaseError) as err:
+        create_robot_mesh(robot("rectangle"), meshspec(size="3 mm"), MPI.COMM_WORLD)
+    assert err.value.key == "mesh.size"
+
+
+# --- solids -----------------------------------------------------------------------------------
+
+CURVED = ("star", "flower")
+
+
+@pytest.mark.parametrize("shape", list(SHAPES))
+def test_solid_every_shape(shape, comm):
+    r = robot(shape)
+    rm = create_robot_mesh(r, meshspec(size=r.min_feature / 2, layers=2), comm)
+    tdim = rm.mesh.topology.dim
+    n_global = rm.mesh.topology.index_map(tdim).size_global
+    assert tdim == 3 and rm.mesh.topology.cell_name() == "hexahedron"
+    assert n_global == rm.num_cells  # dolfinx (any number of ranks) == gmsh on rank 0
+    # every cell in exactly one group: the owned cells of the groups add up
+    cell_groups = [n for n, (d, _) in rm.groups.items() if d == tdim]
+    assert sum(owned_count(rm, n, comm) for n in cell_groups) == n_global
+    for name in rm.groups:
+        assert owned_count(rm, name, comm) > 0, name
+    expected = {"bottom", "top", *(a.tip for a in rm.arms), *(a.name for a in rm.arms)}
+    assert expected <= set(rm.groups)
+    keys = ("clamp_length", "clamp_radius", "clamp_diameter")
+    clamped = any(getattr(r.params, k, 0) for k in keys)
+    assert ("clamp" in rm.groups) == bool(clamped)
+    # volume: polygons exact to round-off (measured <= 3e-14); curved outlines with straight
+    # order-1 edges: star -6.4e-5, flower -1.6e-2 at this size (measured, see test below)
+    rel = measure(rm, comm) / (rm.area * THICKNESS) - 1
+    assert abs(rel) < (2e-2 if shape in CURVED else 1e-9)
+    # scaled Jacobian: measured >= 0.11 (flower, coarse), 0.38 star, >= 0.43 polygons
+    assert rm.min_quality >= MIN_QUALITY
+
+
+def test_clamp_patch_and_bottom(comm):
+    """clamp + bottom tile the bottom face: areas clamp_length·width and the rest (rectangle)."""
+    r = robot("rectangle", length="10 mm", width="2 mm", clamp_length="1.5 mm")
+    rm = create_robot_mesh(r, meshspec(size="0.5 mm"), comm)
+    ds = ufl.Measure(
+        "ds", domain=rm.mesh, subdomain_data=rm.facet_tags, metadata={"quadrature_degree": Q}
+    )
+
+    def area(name: str) -> float:
+        form = fem.form(1.0 * ds(rm.groups[name][1]))
+        return comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+    assert area("clamp") == pytest.approx(1.5e-3 * 2e-3, rel=1e-12)
+    assert area("bottom") == pytest.approx(8.5e-3 * 2e-3, rel=1e-12)
+    assert area("top") == pytest.approx(10e-3 * 2e-3, rel=1e-12)
+    assert area("tip") == pytest.approx(2e-3 * THICKNESS, rel=1e-12)
+
+
+def test_curved_outline_accuracy(comm):
+    """Second-order geometry captures the star hub; order-1 flower area converges at rate 2."""
+    star = robot("star")
+    errors = {}
+    for order in (1, 2):
+        rm = create_robot_mesh(star, meshspec(size="0.75 mm", order=order), comm)
+        errors[order] = abs(measure(rm, comm) / (rm.area * THICKNESS) - 1)
+    # measured 6.4e-5 (order 1) and 8.7e-9 (order 2)
+    assert errors[1] < 1e-4 and errors[2] < 1e-7 and errors[2] < 1e-3 * errors[1]
+    flower = robot("flower")
+    e = []
+    for h in (2e-3, 1e-3):
+        rm = create_robot_mesh(flower, meshspec(size=h), comm)
+        e.append(abs(measure(rm, comm) / (rm.area * THICKNESS) - 1))
+    # chord error of circular arcs is O(h²): measured 1.61e-2 -> 4.15e-3 (rate 1.96)
+    rate = math.log2(e[0] / e[1])
+    assert 1.7 < rate < 2.3
+
+
+def test_function_spaces_p1_p2(comm):
+    """dolfinx accepts the meshes: vector P1 on order-1 and P2 on order-2 geometry."""
+    r = robot("trapezoid")
+    for order in (1, 2):
+        rm = create_robot_mesh(r, meshspec(size="1 mm", order=order), comm)
+        V = fem.functionspace(rm.mesh, ("Lagrange", order, (3,)))
+        n_nodes = rm.mesh.geometry.index_map().size_global
+        assert V.dofmap.index_map.size_global == n_nodes  # P_k dofs = order-k geometry nodes
+
+
+# --- arms and position --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", ["rectangle", "triangle", "bow_tie", "star", "flower", "manta"])
+def test_arms_reach_their_tips(shape, comm):
+    """Each arm's cells extend from its root exactly ``length`` along ``direction``."""
+    position = (1e-3, -2e-3, 5e-3)
+    r = robot(shape, position=list(position))
+    rm = create_robot_mesh(r, meshspec(size=r.min_feature / 2), comm)
+    x = rm.mesh.geometry.x
+    for arm in rm.arms:
+        assert np.isclose(np.linalg.norm(arm.direction), 1.0)
+        assert arm.root[2] == pytest.approx(position[2] + THICKNESS / 2)
+        _, cells = locate(rm, arm.name)
+        dofs = np.unique(rm.mesh.geometry.dofmaps[0][cells].ravel())
+        s = (x[dofs] - arm.root) @ arm.direction if len(dofs) else np.array([-np.inf])
+        reach = comm.allreduce(float(np.max(s)), op=MPI.MAX)
+        start = comm.allreduce(float(np.min(s)) if len(dofs) else np.inf, op=MPI.MIN)
+        assert reach == pytest.approx(arm.length, rel=1e-9)
+        assert start <= 1e-12  # the arm's cells begin at (or, for hubs' arcs, before) the root
+    if shape == "rectangle":
+        (arm,) = rm.arms
+        np.testing.assert_allclose(arm.root, np.add(position, (0, 0, THICKNESS / 2)))
+        np.testing.assert_allclose(arm.direction, (1, 0, 0))
+        assert arm.length == pytest.approx(10e-3)
+    if shape == "star":
+        p = r.params
+        for i, arm in enumerate(rm.arms):
+            a = 2 * math.pi * i / p.arms
+            np.testing.assert_allclose(arm.direction, (math.cos(a), math.sin(a), 0), atol=1e-15)
+            assert arm.length == pytest.approx(p.arm_length - p.hub_radius)
+    lo = comm.allreduce(float(np.min(x[:, 2])), op=MPI.MIN)
+    hi = comm.allreduce(float(np.max(x[:, 2])), op=MPI.MAX)
+    assert lo == pytest.approx(position[2]) and hi == pytest.approx(position[2] + THICKNESS)
+
+
+# --- strip and surface ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", STRIP_SHAPES)
+@pytest.mark.parametrize("element", ["hex", "wedge"])
+def test_strip(shape, element, comm):
+    r = robot(shape, position=[1e-3, 7.0, 2e-3])
+    layers = 3
+    rm = create_robot_mesh(
+        r, meshspec(size=r.min_feature / 2, model="strip", layers=layers, element=element), comm
+    )
+    assert rm.mesh.geometry.dim == 2 and rm.model == "strip"
+    assert rm.mesh.topology.index_map(2).size_global == rm.num_cells
+    total = sum(a.length for a in rm.arms)
+    assert measure(rm, comm) == pytest.approx(total * THICKNESS, rel=1e-12)
+    # structured through the thickness: cells = (elements along x) × layers (× 2 triangles)
+    n_bottom = owned_count(rm, "bottom", comm) + (
+        owned_count(rm, "clamp", comm) if "clamp" in rm.groups else 0
+    )
+    assert rm.num_cells == n_bottom * layers * (2 if element == "wedge" else 1)
+    for a in rm.arms:
+        assert owned_count(rm, a.tip, comm) == layers
+        assert a.root[1] == pytest.approx(2e-3 + THICKNESS / 2) and a.root[2] == 0.0
+    x = rm.mesh.geometry.x
+    assert comm.allreduce(float(np.min(x[:, 1])), op=MPI.MIN) == pytest.approx(2e-3)
+
+
+@pytest.mark.parametrize("shape", ["two_arm_rectangle", "flower", "manta"])
+def test_surface(shape, comm):
+    r = robot(shape)
+    rm = create_robot_mesh(r, meshspec(size=r.min_feature / 2, model="surface"), comm)
+    assert rm.mesh.topology.dim == 2 and rm.mesh.geometry.dim == 3
+    rel = measure(rm, comm) / rm.area - 1
+    assert abs(rel) < (2e-2 if shape in CURVED else 1e-12)
+    x = rm.mesh.geometry.x
+    assert np.allclose(x[:, 2], THICKNESS / 2)
+    if "clamp" in rm.groups:  # every clamp edge lies inside the bonded patch
+        dim, edges = locate(rm, "clamp")
+        assert owned_count(rm, "clamp", comm) > 0
+        rm.mesh.topology.create_connectivity(dim, 0)
+        from dolfinx.mesh import entities_to_geometry
+
+        pts = x[entities_to_geometry(rm.mesh, dim, edges)].reshape(-1, 3)
+        if shape == "flower":
+            assert np.all(np.hypot(pts[:, 0], pts[:, 1]) <= r.params.clamp_diameter / 2 + 1e-9)
+        else:
+            assert np.all(np.abs(pts[:, 0]) <= r.params.clamp_length / 2 + 1e-9)
+
+
+def test_write_msh(shared_tmp, comm):
+    path = shared_tmp / "robot.msh"
+    create_robot_mesh(robot("membrane"), meshspec(size="1 mm"), comm, msh_path=path)
+    comm.barrier()
+    assert path.is_file() and path.stat().st_size > 0
