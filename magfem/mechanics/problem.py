@@ -1,0 +1,293 @@
+"""The membrane's residual in continuous time, its loads and its supports.
+
+Total Lagrangian balance of momentum (DESIGN.md), weak form: for all test
+displacements w vanishing on the supports,
+
+    R(u, u̇, ü; t)[w] = ∫ ρ ü·w dV + δΠ(u)[w] − ∫ t_c(x, u̇)·w dA = 0,
+    Π(u) = ∫ ψ_el(F) − (F M̃)·B_a(X + u, t) − ρ g·u dV,
+
+with ψ_el and the magnetic energy of :mod:`magfem.material`, M̃ the remanent
+magnetization (piecewise constant per cell group), g gravity and t_c the
+ground-contact traction of :mod:`magfem.mechanics.contact` (when
+``[contact] ground = true``). δΠ is formed by ``ufl.derivative`` of the
+energy with respect to a placeholder displacement that is then replaced by
+the integrator's stage displacement, so the integrator's weights multiply
+the inertia and the internal force consistently (a derivative taken through
+u_{n+1−αf} itself would carry a spurious factor 1 − αf).
+
+Models: ``solid`` (3D, gdim 3) and ``strip`` (2D side view (x, z), gdim 2,
+plane strain or plane stress per ``[material] plane``; every integral is
+per unit width). Each measure has an explicit quadrature degree
+(``[solver] quadrature_degree``, default 2 × degree): UFL's estimate for
+B_a(X + u) reaches degree ~100 and kills compilation (FENICSX.md).
+
+Supports: ``[environment] clamped`` groups (facets or cells) have u = 0;
+``fixed_point`` pins the nodes nearest to a reference point (or within
+``fixed_radius``); with neither the body is free (rigid-body motion is
+governed by the mass; the quasi-static scheme then refuses to run).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from magfem import material
+from magfem.config import CaseError
+from magfem.geometry.robot_mesh import RobotMesh, locate
+from magfem.mechanics.integrator import TimeIntegrator
+
+if TYPE_CHECKING:
+    from magfem.case import Case
+    from magfem.field.model import FieldModel
+
+__all__ = [
+    "MembraneProblem",
+    "build_membrane_problem",
+    "magnetization_vector",
+]
+
+
+def magnetization_vector(direction: str | tuple[float, ...], magnitude: float, gdim: int) -> Any:
+    """Remanent magnetization M̃ (A/m) as a numpy vector of length ``gdim``.
+
+    ``"normal"`` is +z (3D) or the second axis of a strip (its z); a vector
+    (mx, my, mz) is normalised; strips keep (mx, mz).
+    """
+    if isinstance(direction, str):
+        vec = np.array([0.0, 0.0, -1.0 if direction == "-normal" else 1.0])
+    else:
+        vec = np.asarray(direction, dtype=float)
+        vec = vec / np.linalg.norm(vec)
+    vec = magnitude * vec
+    return vec if gdim == 3 else np.array([vec[0], vec[2]])
+
+
+def _embed(v: Any, gdim: int) -> Any:
+    """A UFL gdim-vector as the 3D vector the field model expects."""
+    return v if gdim == 3 else ufl.as_vector([v[0], 0.0, v[1]])
+
+
+def _project(v3: Any, gdim: int) -> Any:
+    """The in-plane (mesh) components of a UFL 3-vector."""
+    return v3 if gdim == 3 else ufl.as_vector([v3[0], v3[2]])
+
+
+@dataclass
+class MembraneProblem:
+    """Everything the time loop needs, built once (forms not yet compiled).
+
+    Attributes:
+        robot: the robot mesh and its groups.
+        u: unknown displacement u_{n+1} (m), Lagrange ``degree``, gdim components.
+        integrator: the time integrator holding (u_n, v_n, a_n).
+        residual: the step residual (UFL form).
+        continuous_residual: R(u, v, a, t) as a callable (for the initial acceleration).
+        bcs: Dirichlet conditions (homogeneous).
+        magnetization: DG0 vector field M̃ (A/m).
+        energy_forms: name -> UFL scalar form at (u_{n+1}, v_{n+1}) (J; J/m for strips).
+        contact_forms: resultant ground force components (N; N/m for strips) or [].
+        kinematics: ``solid``, ``plane_strain`` or ``plane_stress``.
+        quadrature_degree: degree used on every measure.
+        field: the bound field model.
+    """
+
+    robot: RobotMesh
+    u: fem.Function
+    integrator: TimeIntegrator
+    residual: ufl.Form
+    continuous_residual: Any
+    bcs: list[fem.DirichletBC]
+    magnetization: fem.Function
+    energy_forms: dict[str, ufl.Form]
+    contact_forms: list[ufl.Form]
+    kinematics: material.Kinematics
+    quadrature_degree: int
+    field: FieldModel
+    free_body: bool
+
+
+def _kinematics(case: Case) -> material.Kinematics:
+    model = case.mesh.model
+    if model == "solid":
+        return "solid"
+    if model == "strip":
+        return "plane_strain" if case.material.plane == "strain" else "plane_stress"
+    raise CaseError(
+        "mesh.model", model, "the mechanics solves 'solid' and 'strip' models, not 'surface'"
+    )
+
+
+def _magnetization(case: Case, robot: RobotMesh) -> fem.Function:
+    """DG0 vector field M̃ (A/m): the material's value, overridden per region."""
+    domain = robot.mesh
+    gdim = domain.geometry.dim
+    Q = fem.functionspace(domain, ("DG", 0, (gdim,)))
+    M = fem.Function(Q, name="magnetization")
+    spec = case.material
+    values = M.x.array.reshape(-1, gdim)
+    values[:] = magnetization_vector(spec.direction, spec.remanence, gdim)
+    for i, region in enumerate(spec.regions):
+        try:
+            dim, cells = locate(robot, region.group)
+        except KeyError:
+            raise CaseError(
+                f"material.regions[{i}].group",
+                region.group,
+                "no such group; groups are " + ", ".join(sorted(robot.groups)),
+            ) from None
+        if dim != domain.topology.dim:
+            raise CaseError(f"material.regions[{i}].group", region.group, "is not a cell group")
+        direction = region.direction if region.direction is not None else spec.direction
+        magnitude = region.remanence if region.remanence is not None else spec.remanence
+        values[cells] = magnetization_vector(direction, magnitude, gdim)
+    M.x.scatter_forward()
+    return M
+
+
+def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list, bool]:
+    """Dirichlet conditions of ``[environment]``; returns (bcs, free_body)."""
+    domain = robot.mesh
+    gdim = domain.geometry.dim
+    env = case.environment
+    zero = np.zeros(gdim, dtype=np.float64)
+    bcs = []
+    for i, name in enumerate(env.clamped):
+        if name not in robot.groups and name != "robot":
+            if name == "clamp":  # the default: robots with clamp_length = 0 have none
+                continue
+            raise CaseError(
+                f"environment.clamped[{i}]",
+                name,
+                "no such group; groups are " + ", ".join(sorted(robot.groups)),
+            )
+        dim, entities = locate(robot, name)
+        domain.topology.create_connectivity(dim, domain.topology.dim)
+        dofs = fem.locate_dofs_topological(V, dim, entities)
+        bcs.append(fem.dirichletbc(zero, dofs, V))
+    if env.fixed_point is not None:
+        point = np.zeros(3)
+        point[:gdim] = np.asarray(env.fixed_point)[:gdim] if gdim == 3 else env.fixed_point[::2]
+        coords = V.tabulate_dof_coordinates()
+        dist = np.linalg.norm(coords - point, axis=1)
+        nearest = domain.comm.allreduce(dist.min() if dist.size else np.inf, op=MPI.MIN)
+        radius = max(env.fixed_radius, nearest * (1 + 1e-9) + 1e-15)
+        dofs = np.flatnonzero(dist <= radius).astype(np.int32)
+        bcs.append(fem.dirichletbc(zero, dofs, V))
+    has_any = domain.comm.allreduce(sum(len(bc.dof_indices()[0]) for bc in bcs), op=MPI.SUM) > 0
+    return bcs, not has_any
+
+
+def build_membrane_problem(
+    case: Case, robot: RobotMesh, field: FieldModel, *, dt: float | None = None
+) -> MembraneProblem:
+    """Build the discretised membrane problem of ``case`` on ``robot`` in ``field``.
+
+    Args:
+        case: validated case (material, time, solver, contact, environment).
+        robot: robot mesh (``solid`` or ``strip``).
+        field: field model; bound to the mesh here.
+        dt: initial step (s), default ``case.time.step``.
+
+    Raises:
+        CaseError: surface model, unknown groups, quasi-static free body.
+    """
+    kinematics = _kinematics(case)
+    domain = robot.mesh
+    gdim = domain.geometry.dim
+    degree = case.solver.degree
+    q = case.solver.quadrature_degree or 2 * degree
+    V = fem.functionspace(domain, ("Lagrange", degree, (gdim,)))
+    u = fem.Function(V, name="displacement")
+    integ = TimeIntegrator(u, case.time.scheme, rho_inf=case.time.rho_inf, dt=dt or case.time.step)
+    mat = case.material
+    mu = fem.Constant(domain, mat.shear_modulus)
+    K = fem.Constant(domain, mat.bulk)
+    rho = fem.Constant(domain, mat.density)
+    g3 = np.asarray(case.environment.gravity, dtype=float)
+    g = fem.Constant(domain, g3 if gdim == 3 else g3[::2].copy())
+    M = _magnetization(case, robot)
+    field.bind(domain)
+    X = ufl.SpatialCoordinate(domain)
+    dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
+    ds = ufl.Measure(
+        "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
+    )
+    w = ufl.TestFunction(V)
+    bcs, free_body = _supports(case, robot, V)
+    if free_body and not integ.dynamic:
+        raise CaseError(
+            "time.scheme",
+            case.time.scheme,
+            "a free body (no clamped group, no fixed_point) needs a dynamic scheme",
+        )
+
+    def potential(v_disp: Any) -> Any:
+        """Π density (J/m³) at displacement ``v_disp``."""
+        F = material.deformation_gradient(v_disp)
+        B = _project(field.flux_density(_embed(X + v_disp, gdim)), gdim)
+        return (
+            material.elastic_energy(F, mu, K, kinematics)
+            + material.magnetic_energy(F, M, B)
+            - rho * ufl.dot(g, v_disp)
+        )
+
+    placeholder = fem.Function(V)
+    internal = ufl.algorithms.expand_derivatives(
+        ufl.derivative(potential(placeholder) * dx, placeholder, w)
+    )
+
+    contact = None
+    if case.contact.ground:
+        from magfem.mechanics.contact import GroundContact, create_ground_contact_law
+
+        law = create_ground_contact_law(
+            case.contact,
+            shear_modulus=mat.shear_modulus,
+            density=mat.density,
+            thickness=robot.thickness,
+        )
+        contact = GroundContact(
+            law, domain, vertical=gdim - 1, ground_height=case.contact.ground_height
+        )
+
+    def residual(u_: Any, v_: Any, a_: Any, t_: Any) -> ufl.Form:
+        form = ufl.replace(internal, {placeholder: u_})
+        if integ.dynamic:
+            form = form + rho * ufl.dot(a_, w) * dx
+        if contact is not None:
+            form = form - contact.work(X + u_, v_, w, ds)
+        return form
+
+    F_step = integ.discretise(residual)
+
+    v1 = integ.v0  # after advance(), (u, v0) is the state at t_{n+1}
+    Fu = material.deformation_gradient(u)
+    Bu = _project(field.flux_density(_embed(X + u, gdim)), gdim)
+    energy_forms = {
+        "kinetic": 0.5 * rho * ufl.dot(v1, v1) * dx,
+        "elastic": material.elastic_energy(Fu, mu, K, kinematics) * dx,
+        "magnetic": material.magnetic_energy(Fu, M, Bu) * dx,
+        "gravity": -rho * ufl.dot(g, u) * dx,
+    }
+    contact_forms = contact.force_forms(X + u, v1, ds) if contact is not None else []
+    return MembraneProblem(
+        robot=robot,
+        u=u,
+        integrator=integ,
+        residual=F_step,
+        continuous_residual=residual,
+        bcs=bcs,
+        magnetization=M,
+        energy_forms=energy_forms,
+        contact_forms=contact_forms,
+        kinematics=kinematics,
+        quadrature_degree=q,
+        field=field,
+        free_body=free_body,
+    )

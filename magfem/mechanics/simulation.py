@@ -1,0 +1,454 @@
+"""The time loop of a membrane run: :class:`MembraneSimulation` and :func:`simulate`.
+
+Per step (dolfiny-style): choose Δt → stage (integrator predictor, field at
+the stage time) → Newton solve → check convergence → advance or cut.
+
+Step control:
+
+* Steps land exactly on the field's switching instants
+  (``FieldModel.breakpoints``) and on the end time: a step that would cross
+  one is shortened to end on it (and one within 5 % past it is stretched).
+  Loads are evaluated at the stage time t_{n+1−αf}, strictly inside the
+  step, so a step sees one side of a switch only.
+* A failed Newton solve (SNES reason <= 0, NaN) restores u_n, multiplies
+  the step by ``cut_factor`` and retries, at most ``max_cuts`` times in a
+  row and never below ``min_step``; then :class:`SimulationError` is raised
+  (the CSV keeps every accepted step).
+* A slow solve (>= ``slow_iterations``) cuts the next step; two easy solves
+  in a row (<= ``easy_iterations``) grow it by ``grow_factor`` up to
+  ``max_step``. Every change is logged (``SimulationResult.log``, and on
+  rank 0 above the progress bar).
+
+The initial acceleration is consistent: M a₀ = −R(u₀, v₀, 0; t₀) (a linear
+solve), so gravity and a field switched on at t₀ act from the first step.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+from dolfinx import fem
+from mpi4py import MPI
+
+from magfem import material
+from magfem.mechanics.observers import (
+    AngleUnwrapper,
+    PointEvaluator,
+    StrainProbe,
+    arm_angle_points,
+    assemble_scalars,
+    bending_angle,
+    max_over_window,
+)
+from magfem.mechanics.problem import MembraneProblem, build_membrane_problem
+from magfem.mechanics.solver import NewtonReport, NewtonSolver, solve_linear
+
+if TYPE_CHECKING:
+    from magfem.case import Case
+    from magfem.field.model import FieldModel
+    from magfem.geometry.robot_mesh import RobotMesh
+
+__all__ = [
+    "MembraneSimulation",
+    "SimulationError",
+    "SimulationResult",
+    "drive_frequency",
+    "simulate",
+]
+
+
+class SimulationError(RuntimeError):
+    """The time loop could not continue (Newton failed at the smallest step)."""
+
+
+def drive_frequency(case: Case) -> float | None:
+    """Frequency (Hz) of the first periodic field source, or None."""
+    for src in getattr(case.field, "sources", ()):
+        wf = getattr(src, "waveform", None)
+        f = getattr(wf, "frequency", None) if wf is not None else None
+        if f:
+            return float(f)
+    return None
+
+
+@dataclass
+class SimulationResult:
+    """What a run produced (identical on every rank).
+
+    Attributes:
+        history: column name -> (steps + 1,) array (SI units; angles in rad).
+        summary: scalar results (max angles over the first one/two periods, rad;
+            largest strain; energy/power density J/m³, W/m³; step counts).
+        paths: name -> written file (csv, vtx, png), possibly empty.
+        log: step-control events, one line each.
+        timings: wall time split (s) on rank 0: compile, residual, jacobian,
+            linear_solve, total.
+    """
+
+    history: dict[str, npt.NDArray[np.float64]]
+    summary: dict[str, float]
+    paths: dict[str, Path] = field(default_factory=dict)
+    log: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+class MembraneSimulation:
+    """A membrane run's dolfinx objects, built once and stepped (collective).
+
+    Args:
+        case: the validated case.
+        comm: communicator.
+        robot_mesh: a prebuilt mesh (default: ``create_robot_mesh`` of the case).
+        field_model: a prebuilt field model (default: ``create_field_model``).
+
+    Attributes:
+        problem, solver, integrator: the pieces (see :mod:`.problem`, :mod:`.solver`).
+        arms: arm name -> Arm.
+    """
+
+    def __init__(
+        self,
+        case: Case,
+        comm: MPI.Comm = MPI.COMM_WORLD,
+        *,
+        robot_mesh: RobotMesh | None = None,
+        field_model: FieldModel | None = None,
+    ):
+        t0 = _time.perf_counter()
+        self.case = case
+        self.comm = comm
+        if robot_mesh is None:
+            from magfem.geometry.robot_mesh import create_robot_mesh
+
+            robot_mesh = create_robot_mesh(case.robot, case.mesh, comm)
+        if field_model is None:
+            from magfem.field.model import create_field_model
+
+            field_model = create_field_model(case.field, comm)
+        self.robot = robot_mesh
+        self.field = field_model
+        self.mesh_time = _time.perf_counter() - t0
+        self.problem: MembraneProblem = build_membrane_problem(case, robot_mesh, field_model)
+        self.integrator = self.problem.integrator
+        self.u = self.problem.u
+        self.solver = NewtonSolver(
+            self.problem.residual, self.u, self.problem.bcs, case.solver, name="step"
+        )
+        t1 = _time.perf_counter()
+        self.energy_forms = {
+            k: fem.form(f, jit_options={"cffi_extra_compile_args": ["-O2"]})
+            for k, f in self.problem.energy_forms.items()
+        }
+        self.contact_forms = [fem.form(f) for f in self.problem.contact_forms]
+        self.observer_compile_time = _time.perf_counter() - t1
+        gdim = robot_mesh.mesh.geometry.dim
+        self.gdim = gdim
+        self.arms = {arm.name: arm for arm in robot_mesh.arms}
+        pts = np.vstack([arm_angle_points(a, gdim) for a in robot_mesh.arms]) if self.arms else None
+        self._angle_points = pts
+        self._angle_eval = PointEvaluator(self.u.function_space, pts) if pts is not None else None
+        self._unwrap = {name: AngleUnwrapper() for name in self.arms}
+        self.strain_probe = StrainProbe(self.u)
+        self.width = self._strip_width()
+        self.frequency = drive_frequency(case)
+        self.log: list[str] = []
+        self.dt = case.time.step
+        self.steps = 0
+        self.newton_iterations = 0
+        self.cuts = 0
+
+    def _strip_width(self) -> float:
+        """Width (m) that turns per-unit-width strip quantities into totals (1 for solids)."""
+        if self.gdim == 3:
+            return 1.0
+        width = getattr(self.case.robot, "width", None)
+        return float(width) if width else 1.0
+
+    # --- observation ------------------------------------------------------------------------
+
+    def observe(self, t: float) -> dict[str, float]:
+        """Observables at the current state u_n (collective). Angles in rad, energies in J."""
+        row: dict[str, float] = {"time": t}
+        if self._angle_eval is not None and self._angle_points is not None:
+            disp = self._angle_eval(self.u)
+            x = self._angle_points[:, : self.gdim] + disp[:, : self.gdim]
+            for i, (name, arm) in enumerate(self.arms.items()):
+                raw = bending_angle(x[2 * i], x[2 * i + 1], arm, self.gdim)
+                row[f"angle_{name}"] = self._unwrap[name](raw)
+        strain = self.strain_probe()
+        row["strain"] = strain
+        row["energy_density"] = material.energy_density(self.case.material.shear_modulus, strain)
+        self.field.update(t, side="left", u=self.u)
+        energies = assemble_scalars(list(self.energy_forms.values()), self.comm)
+        for name, value in zip(self.energy_forms, energies, strict=True):
+            row[f"energy_{name}"] = value * self.width
+        row["energy_total"] = sum(row[f"energy_{n}"] for n in self.energy_forms)
+        if self.contact_forms:
+            forces = assemble_scalars(self.contact_forms, self.comm)
+            row["contact_force"] = forces[-1] * self.width  # vertical component, N
+            row["friction_force"] = float(np.linalg.norm(forces[:-1])) * self.width
+        root = np.zeros(3)
+        if self.arms:
+            first = next(iter(self.arms.values()))
+            root = np.asarray(first.root, dtype=float)
+            if self.gdim == 2:
+                root = np.array([root[0], 0.0, root[1]])
+        b = self.field.evaluate(root[None, :], t, side="left")[0]
+        row["Bx"], row["By"], row["Bz"] = (float(v) for v in b)
+        return row
+
+    def columns(self) -> list[str]:
+        """CSV column names."""
+        cols = ["time", "dt", "newton_iterations", "cuts"]
+        cols += [f"angle_{n}" for n in self.arms]
+        cols += ["strain", "energy_density"]
+        cols += [f"energy_{n}" for n in self.energy_forms] + ["energy_total"]
+        if self.contact_forms:
+            cols += ["contact_force", "friction_force"]
+        return [*cols, "Bx", "By", "Bz"]
+
+    # --- stepping ---------------------------------------------------------------------------
+
+    def initialise(self) -> NewtonReport | None:
+        """Set t₀ and the consistent initial acceleration (dynamic schemes)."""
+        integ = self.integrator
+        integ.set_state(self.case.time.start)
+        if not integ.dynamic:
+            return None
+        self.field.update(self.case.time.start, side="right", u=self.u)
+        integ.t.value = self.case.time.start  # type: ignore[assignment]
+        V = self.u.function_space
+        a = fem.Function(V)
+        form = self.problem.continuous_residual(integ.u0, integ.v0, a, integ.t)
+        report = solve_linear(form, a, self.problem.bcs, self.case.solver, name="a0")
+        if not report.converged:
+            raise SimulationError(
+                f"initial acceleration solve failed ({report.reason_name}, ‖R‖ = "
+                f"{report.residual_norm:.3g})"
+            )
+        integ.a0.x.array[:] = a.x.array
+        return report
+
+    def _next_step(self, t: float, end: float) -> tuple[float, bool]:
+        """Length of the next step from t and whether it lands on a breakpoint."""
+        dt = min(self.dt, end - t)
+        stop = t + dt
+        ahead = self.field.breakpoints(t, min(t + 1.05 * dt, end))
+        ahead = ahead[ahead > t + 1e-9 * dt]
+        if ahead.size:
+            return float(ahead[0] - t), True
+        if end - stop < 0.05 * dt:
+            return end - t, False
+        return dt, False
+
+    def step(self, dt: float) -> NewtonReport:
+        """One attempted step of length dt from t_n (state restored on failure)."""
+        integ = self.integrator
+        t_stage = integ.begin(dt)
+        side = "right" if integ.dynamic else "left"
+        self.field.update(t_stage, side=side, u=integ.u0)
+        report = self.solver.solve()
+        if report.converged:
+            integ.advance()
+        else:
+            integ.restore()
+        return report
+
+    def _say(self, msg: str, bar: Any) -> None:
+        self.log.append(msg)
+        if self.comm.rank == 0:
+            if bar is not None:
+                bar.write(msg)
+            else:
+                print(msg, flush=True)
+
+    def run(self, outdir: Path | None = None, *, progress: bool = True) -> SimulationResult:
+        """Integrate from ``time.start`` to ``time.end`` writing outputs to ``outdir``.
+
+        Raises:
+            SimulationError: Newton failed ``max_cuts`` times in a row or below ``min_step``.
+        """
+        from magfem.mechanics.output import CsvHistory, VtxOutput, plot_angles
+        from magfem.parallel import progress as progress_bar
+
+        spec = self.case.time
+        out = self.case.output
+        t_wall = _time.perf_counter()
+        paths: dict[str, Path] = {}
+        if outdir is not None:
+            outdir = Path(outdir)
+            if self.comm.rank == 0:
+                outdir.mkdir(parents=True, exist_ok=True)
+            self.comm.barrier()
+        self.initialise()
+        csv_out = None
+        vtx = None
+        if outdir is not None and out.csv:
+            paths["csv"] = outdir / "history.csv"
+            csv_out = CsvHistory(paths["csv"], self.columns(), self.comm)
+        if outdir is not None and out.vtx_every > 0:
+            paths["vtx"] = outdir / "displacement.bp"
+            vtx = VtxOutput(paths["vtx"], [self.u], self.comm)
+        rows: list[dict[str, float]] = []
+        t = spec.start
+        row = self.observe(t) | {"dt": 0.0, "newton_iterations": 0, "cuts": 0}
+        rows.append(row)
+        if csv_out is not None:
+            csv_out.write(row)
+        if vtx is not None:
+            vtx.write(t)
+        bar = (
+            progress_bar(spec.end - spec.start, desc=self.case.name, unit="s", comm=self.comm)
+            if progress
+            else None
+        )
+        easy_streak = 0
+        try:
+            while t < spec.end - 1e-12 * (spec.end - spec.start):
+                dt, on_break = self._next_step(t, spec.end)
+                cuts = 0
+                while True:
+                    report = self.step(dt)
+                    if report.converged:
+                        break
+                    cuts += 1
+                    self.cuts += 1
+                    new_dt = dt * spec.cut_factor
+                    if not spec.adaptive or cuts > spec.max_cuts or new_dt < spec.smallest_step:
+                        raise SimulationError(
+                            f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
+                            f"{report.iterations} it, ‖R‖ = {report.residual_norm:.3g}) "
+                            f"at dt = {dt:.3g} s after {cuts} cut(s)"
+                        )
+                    self._say(
+                        f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
+                        f"{report.iterations} it); step cut {dt:.3g} -> {new_dt:.3g} s",
+                        bar,
+                    )
+                    dt, on_break = new_dt, False
+                    self.dt = dt
+                t_new = t + dt
+                if on_break:  # land exactly on the switching instant
+                    t_new = float(self.field.breakpoints(t, t + 1.01 * dt)[0])
+                if abs(spec.end - t_new) < 1e-9 * dt:
+                    t_new = spec.end
+                self.integrator.time = t_new
+                t = t_new
+                self.steps += 1
+                self.newton_iterations += report.iterations
+                row = self.observe(t) | {
+                    "dt": dt,
+                    "newton_iterations": report.iterations,
+                    "cuts": cuts,
+                }
+                rows.append(row)
+                if csv_out is not None:
+                    csv_out.write(row)
+                if vtx is not None and self.steps % out.vtx_every == 0:
+                    vtx.write(t)
+                if bar is not None:
+                    bar.update(dt)
+                    bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
+                self._control(report, cuts, easy_streak, bar, t)
+                easy_streak = (
+                    easy_streak + 1
+                    if report.iterations <= spec.easy_iterations and cuts == 0
+                    else 0
+                )
+                if easy_streak >= 2 and spec.adaptive and self.dt < spec.largest_step:
+                    new_dt = min(self.dt * spec.grow_factor, spec.largest_step)
+                    self._say(
+                        f"t = {t:.6g} s: easy steps; step grown {self.dt:.3g} -> {new_dt:.3g} s",
+                        bar,
+                    )
+                    self.dt = new_dt
+                    easy_streak = 0
+        finally:
+            if bar is not None:
+                bar.close()
+            if csv_out is not None:
+                csv_out.close()
+            if vtx is not None:
+                vtx.close()
+        history = {k: np.array([r.get(k, np.nan) for r in rows]) for k in self.columns()}
+        summary = self._summary(history)
+        if outdir is not None and out.plot:
+            paths["png"] = outdir / "angle.png"
+            if self.comm.rank == 0:
+                plot_angles(
+                    paths["png"],
+                    history["time"],
+                    {n: history[f"angle_{n}"] for n in self.arms},
+                    history["time"],
+                    np.column_stack([history["Bx"], history["By"], history["Bz"]]),
+                    title=self.case.name,
+                )
+        timings = self.timings()
+        timings["total"] = _time.perf_counter() - t_wall
+        return SimulationResult(history, summary, paths, list(self.log), timings)
+
+    def _control(self, report: NewtonReport, cuts: int, streak: int, bar: Any, t: float) -> None:
+        spec = self.case.time
+        if spec.adaptive and report.iterations >= spec.slow_iterations:
+            new_dt = max(self.dt * spec.cut_factor, spec.smallest_step)
+            self._say(
+                f"t = {t:.6g} s: slow Newton ({report.iterations} it); "
+                f"next step {self.dt:.3g} -> {new_dt:.3g} s",
+                bar,
+            )
+            self.dt = new_dt
+
+    def _summary(self, history: dict[str, npt.NDArray[np.float64]]) -> dict[str, float]:
+        t = history["time"]
+        t0 = self.case.time.start
+        out: dict[str, float] = {
+            "steps": float(self.steps),
+            "newton_iterations": float(self.newton_iterations),
+            "mean_newton_iterations": self.newton_iterations / max(self.steps, 1),
+            "cuts": float(self.cuts),
+            "max_strain": float(np.max(history["strain"])),
+            "max_energy_density": float(np.max(history["energy_density"])),
+        }
+        if self.frequency:
+            period = 1.0 / self.frequency
+            out["power_density"] = self.frequency * out["max_energy_density"]
+        for name in self.arms:
+            angle = history[f"angle_{name}"]
+            out[f"max_angle_{name}"] = float(np.max(np.abs(angle)))
+            out[f"final_angle_{name}"] = float(angle[-1])
+            if self.frequency:
+                out[f"max_angle_1period_{name}"] = max_over_window(t, angle, t0, t0 + period)
+                out[f"max_angle_2periods_{name}"] = max_over_window(t, angle, t0, t0 + 2 * period)
+        return out
+
+    def timings(self) -> dict[str, float]:
+        """Wall-time split (s) on this rank."""
+        s = self.solver.timings
+        return {
+            "mesh_and_field": self.mesh_time,
+            "compile": s.compile + self.observer_compile_time,
+            "residual": s.residual,
+            "jacobian": s.jacobian,
+            "linear_solve": s.linear_solve,
+        }
+
+
+def simulate(
+    case: Case, outdir: Path, comm: MPI.Comm = MPI.COMM_WORLD, *, progress: bool = True
+) -> SimulationResult:
+    """Run ``case`` and write its outputs to ``outdir`` (collective).
+
+    Returns:
+        the :class:`SimulationResult` (history arrays on every rank, written paths).
+
+    Raises:
+        magfem.config.CaseError: the case cannot be simulated (surface model, groups).
+        SimulationError: Newton failed at the smallest step (outputs so far are kept).
+    """
+    sim = MembraneSimulation(case, comm)
+    return sim.run(Path(outdir), progress=progress)
