@@ -261,3 +261,20 @@ def test_write_msh(shared_tmp, comm):
     create_robot_mesh(robot("membrane"), meshspec(size="1 mm"), comm, msh_path=path)
     comm.barrier()
     assert path.is_file() and path.stat().st_size > 0
+
+
+def test_plot_robot_gathers_all_cells(shared_tmp, comm):
+    """The picture shows every cell: the grid gathered on rank 0 has the global cell count."""
+    import magfem.plot as mplot
+
+    r = robot("star")
+    rm = create_robot_mesh(r, meshspec(size="0.75 mm"), comm)
+    grid = mplot.robot_grid(rm)
+    out = mplot.plot_robot(rm, shared_tmp / "star.png", comm=comm)
+    if comm.rank == 0:
+        assert grid.n_cells == rm.num_cells
+        assert set(grid.field_data["groups"]) == {"hub", *(a.name for a in rm.arms)}
+        assert np.all(grid.cell_data["group"] >= 0)
+        assert out is not None and out.stat().st_size > 10_000
+    else:
+        assert grid is None and out is None
