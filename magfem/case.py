@@ -35,7 +35,7 @@ from typing import Any
 
 from magfem.config import MISSING, CaseError, check_keys, from_table, to_table
 from magfem.field.spec import FieldSpec
-from magfem.geometry.spec import MeshSpec, RobotSpec
+from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
@@ -67,14 +67,7 @@ class Case:
 
 def _check_consistency(case: Case) -> None:
     """Checks that involve several tables."""
-    feature = case.robot.min_feature
-    if case.mesh.size > feature:
-        raise CaseError(
-            "mesh.size",
-            case.mesh.size,
-            f"element size is larger than the robot's smallest in-plane dimension "
-            f"({feature:g} m); choose mesh.size <= {feature:g}",
-        )
+    check_mesh_for_robot(case.robot, case.mesh)
 
 
 def parse_case(data: Mapping[str, Any]) -> Case:

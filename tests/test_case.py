@@ -113,7 +113,23 @@ BAD_INPUTS = [
         "field.sources[0].waveform.frequency",
         "required",
     ),
-    ("mesh-larger-than-robot", _mutate(_set("mesh.size", "5 mm")), "mesh.size", "larger than"),
+    (
+        "mesh-larger-than-robot",
+        _mutate(_set("mesh.size", "5 mm")),
+        "mesh.size",
+        "smallest in-plane",
+    ),
+    (
+        "strip-for-star",
+        _mutate(
+            lambda d: d.update(
+                robot={"shape": "star", "thickness": "80 um"},
+                mesh={"size": "0.5 mm", "model": "strip"},
+            )
+        ),
+        "mesh.model",
+        "uniform-width",
+    ),
     (
         "unknown-waveform",
         _mutate(_set("field.sources.0.waveform.kind", "sawtooth")),
