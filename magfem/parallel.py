@@ -37,8 +37,14 @@ def progress(total: float, *, desc: str, unit: str = "", comm: MPI.Comm = MPI.CO
     """
     from tqdm import tqdm
 
+    class _Bar(tqdm):  # type: ignore[misc]
+        # a postfix change must not force a redraw: off a terminal the bar
+        # would print a line per step instead of one every ``mininterval``
+        def set_postfix_str(self, s: str = "", refresh: bool = False) -> None:
+            super().set_postfix_str(s, refresh=False)
+
     interactive = sys.stderr.isatty()
-    return tqdm(
+    return _Bar(
         total=total,
         desc=desc,
         unit=unit,
