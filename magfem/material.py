@@ -57,10 +57,12 @@ __all__ = [
     "elastic_energy",
     "energy_density",
     "first_piola_kirchhoff",
+    "isochoric_energy",
     "magnetic_energy",
     "plane_strain_modulus",
     "poisson_ratio",
     "power_density",
+    "volumetric_energy",
     "youngs_modulus",
 ]
 
@@ -155,12 +157,31 @@ def elastic_energy(
             which takes the incompressible limit, see the module docstring).
         kinematics: ``solid``, ``plane_strain`` or ``plane_stress``.
     """
-    mu, K = shear_modulus, bulk_modulus
+    return isochoric_energy(F, shear_modulus, kinematics) + volumetric_energy(
+        F, bulk_modulus, kinematics
+    )
+
+
+def isochoric_energy(
+    F: ufl.core.expr.Expr, shear_modulus: ufl.core.expr.Expr | float, kinematics: Kinematics
+) -> ufl.core.expr.Expr:
+    """μ/2 (J^(-2/3) tr C − 3) (J/m³); plane stress: μ/2 (tr C₂ + J₂⁻² − 3)."""
+    mu = shear_modulus
     if kinematics == "plane_stress":
         J2 = ufl.det(F)
         return mu / 2 * (ufl.tr(F.T * F) + J2 ** (-2) - 3)
     J, trC = _invariants(F, kinematics)
-    return mu / 2 * (J ** (-2.0 / 3.0) * trC - 3) + K / 2 * (J - 1) ** 2
+    return mu / 2 * (J ** (-2.0 / 3.0) * trC - 3)
+
+
+def volumetric_energy(
+    F: ufl.core.expr.Expr, bulk_modulus: ufl.core.expr.Expr | float, kinematics: Kinematics
+) -> ufl.core.expr.Expr:
+    """K/2 (J − 1)² (J/m³); zero for plane stress (incompressible limit)."""
+    if kinematics == "plane_stress":
+        return ufl.as_ufl(0.0)
+    J = ufl.det(F)
+    return bulk_modulus / 2 * (J - 1) ** 2
 
 
 def magnetic_energy(

@@ -166,7 +166,7 @@ class TimeIntegrator:
         return t0 + (1.0 - self._alpha().alpha_f) * dt
 
     def begin(self, dt: float) -> float:
-        """Set Δt, the stage time and the predictor u = u_n + Δt v_n + Δt²/2 a_n.
+        """Set Δt, the stage time and the predictor u = u_n + Δt v_n.
 
         Returns the stage time (s); the caller updates time-dependent loads to it.
         """
@@ -175,7 +175,7 @@ class TimeIntegrator:
         self.t.value = t_stage  # type: ignore[assignment]
         x = self.u.x.array
         if self.dynamic:
-            x[:] = self.u0.x.array + dt * self.v0.x.array + 0.5 * dt * dt * self.a0.x.array
+            x[:] = self.u0.x.array + dt * self.v0.x.array
         else:
             x[:] = self.u0.x.array
         return t_stage

@@ -215,6 +215,9 @@ def build_membrane_problem(
     field.bind(domain)
     X = ufl.SpatialCoordinate(domain)
     dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
+    q_vol = case.solver.volumetric_quadrature_degree
+    q_vol = q if q_vol is None else q_vol
+    dx_vol = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q_vol})
     ds = ufl.Measure(
         "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
     )
@@ -228,18 +231,18 @@ def build_membrane_problem(
         )
 
     def potential(v_disp: Any) -> Any:
-        """Π density (J/m³) at displacement ``v_disp``."""
+        """Π (J; J/m for strips) at displacement ``v_disp``: volumetric part reduced-integrated."""
         F = material.deformation_gradient(v_disp)
         B = _project(field.flux_density(_embed(X + v_disp, gdim)), gdim)
         return (
-            material.elastic_energy(F, mu, K, kinematics)
+            material.isochoric_energy(F, mu, kinematics)
             + material.magnetic_energy(F, M, B)
             - rho * ufl.dot(g, v_disp)
-        )
+        ) * dx + material.volumetric_energy(F, K, kinematics) * dx_vol
 
     placeholder = fem.Function(V)
     internal = ufl.algorithms.expand_derivatives(
-        ufl.derivative(potential(placeholder) * dx, placeholder, w)
+        ufl.derivative(potential(placeholder), placeholder, w)
     )
 
     contact = None
@@ -271,7 +274,8 @@ def build_membrane_problem(
     Bu = _project(field.flux_density(_embed(X + u, gdim)), gdim)
     energy_forms = {
         "kinetic": 0.5 * rho * ufl.dot(v1, v1) * dx,
-        "elastic": material.elastic_energy(Fu, mu, K, kinematics) * dx,
+        "elastic": material.isochoric_energy(Fu, mu, kinematics) * dx
+        + material.volumetric_energy(Fu, K, kinematics) * dx_vol,
         "magnetic": material.magnetic_energy(Fu, M, Bu) * dx,
         "gravity": -rho * ufl.dot(g, u) * dx,
     }

@@ -89,9 +89,6 @@ def newton_options(spec: SolverSpec) -> dict[str, Any]:
     }
     if spec.linear_solver != "petsc":
         opts["pc_factor_mat_solver_type"] = spec.linear_solver
-    if spec.linear_solver == "mumps":
-        # headroom for fill-in growth of the factorisation after large rotations
-        opts["mat_mumps_icntl_14"] = 100
     if spec.reuse_jacobian:
         # rebuild the Jacobian every second Newton iteration only
         opts["snes_lag_jacobian"] = 2

@@ -213,7 +213,7 @@ class SolverSpec:
 
     linear_solver: str = option("mumps", ("mumps", "superlu_dist", "petsc"))
     line_search: str = option("basic", ("basic", "bt", "l2", "cp"))
-    rtol: float = quantity(1e-8, "", gt=0.0, lt=1.0, doc="Newton relative residual tolerance")
+    rtol: float = quantity(1e-6, "", gt=0.0, lt=1.0, doc="Newton relative residual tolerance")
     atol: float = quantity(1e-12, "N", ge=0.0, doc="Newton absolute residual tolerance (N)")
     stol: float = quantity(1e-10, "", ge=0.0, lt=1.0, doc="Newton relative step tolerance")
     max_iterations: int = integer(15, ge=1, doc="Newton iterations before a step counts as failed")
@@ -221,6 +221,9 @@ class SolverSpec:
     degree: int = integer(2, ge=1, le=3, doc="Lagrange degree of the displacement (P2 default)")
     quadrature_degree: int | None = integer(
         None, ge=1, le=12, doc="quadrature degree (default 2 × degree)"
+    )
+    volumetric_quadrature_degree: int | None = integer(
+        None, ge=0, le=12, doc="degree for K/2 (J−1)² (reduced: 2 × (degree − 1); None: same)"
     )
     petsc_options: dict[str, Any] = field(default_factory=dict)
 
@@ -243,7 +246,7 @@ class ContactSpec:
     friction: float = quantity(0.5, "", ge=0.0, doc="Coulomb friction coefficient μ_f")
     penalty: float = quantity(10.0, "", gt=0.0, doc="κ: contact stiffness k_n = κ μ / thickness")
     penalty_onset: float = quantity(
-        1e-3, "", gt=0.0, doc="width of the C¹ onset of the penalty ramp, in thicknesses"
+        0.05, "", gt=0.0, doc="width of the C¹ onset of the penalty ramp, in thicknesses"
     )
     damping: float = quantity(1.0, "", ge=0.0, doc="contact dashpot, fraction of critical")
     regularization_velocity: float = quantity(
