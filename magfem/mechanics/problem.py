@@ -216,7 +216,7 @@ def build_membrane_problem(
     X = ufl.SpatialCoordinate(domain)
     dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
     q_vol = case.solver.volumetric_quadrature_degree
-    q_vol = q if q_vol is None else q_vol
+    q_vol = 2 * (degree - 1) if q_vol is None else q_vol
     dx_vol = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q_vol})
     ds = ufl.Measure(
         "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}

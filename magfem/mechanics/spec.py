@@ -223,7 +223,7 @@ class SolverSpec:
         None, ge=1, le=12, doc="quadrature degree (default 2 × degree)"
     )
     volumetric_quadrature_degree: int | None = integer(
-        None, ge=0, le=12, doc="degree for K/2 (J−1)² (reduced: 2 × (degree − 1); None: same)"
+        None, ge=0, le=12, doc="degree for K/2 (J−1)² (default reduced: 2 × (degree − 1))"
     )
     petsc_options: dict[str, Any] = field(default_factory=dict)
 
