@@ -253,6 +253,18 @@ class MembraneSimulation:
         side = "right" if integ.dynamic else "left"
         self.field.update(t_stage, side=side, u=integ.u0)
         report = self.solver.solve()
+        if not report.converged and report.iterations <= 1:
+            # the predictor (u_n + Δt v_n) can invert thin elements after a sudden load:
+            # retry once from u_n before the step is cut
+            integ.restore()
+            retry = self.solver.solve()
+            report = NewtonReport(
+                retry.converged,
+                retry.reason,
+                report.iterations + retry.iterations,
+                report.linear_iterations + retry.linear_iterations,
+                retry.residual_norm,
+            )
         if report.converged:
             integ.advance()
         else:

@@ -9,7 +9,7 @@ returns a :class:`NewtonReport` whose ``converged`` is
 
 Default options (FENICSX.md, measured on thin cantilevers): Newton with
 ``basic`` line search (``bt`` stalled), direct LU by MUMPS, and
-``snes_divergence_tolerance = -1`` (unlimited: PETSc's default 1e4 stops
+``snes_divergence_tolerance = 1e12`` (practically unlimited: PETSc's default 1e4 stops
 Newton on thin plates whose first iterate raises ‖R‖ a thousandfold).
 Options in ``SolverSpec.petsc_options`` override these; every problem has
 its own options prefix.
@@ -81,7 +81,7 @@ def newton_options(spec: SolverSpec) -> dict[str, Any]:
         "snes_atol": spec.atol,
         "snes_stol": spec.stol,
         "snes_max_it": spec.max_iterations,
-        "snes_divergence_tolerance": -1,
+        "snes_divergence_tolerance": 1e12,
         "snes_max_fail": 0,
         "ksp_type": "preonly",
         "pc_type": "lu",
