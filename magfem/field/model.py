@@ -54,6 +54,7 @@ __all__ = [
     "UniformFieldModel",
     "create_field_model",
     "embed_points",
+    "hessian_from_gradient",
     "model_errors",
     "workspace_points",
 ]
@@ -101,6 +102,22 @@ class UniformField(SourceField):
 
     def hessian(self, points: np.ndarray) -> np.ndarray:
         return np.zeros((len(np.atleast_2d(points)), 3, 3, 3))
+
+
+def hessian_from_gradient(gradient: Any, points: np.ndarray, step: float) -> np.ndarray:
+    """∇∇B (N, 3, 3, 3) by central differences of a continuous recovered gradient (step m).
+
+    Symmetrised in the two derivative indices. Error O(step²) plus the
+    gradient's error divided by ``step`` (the step should be of the order of
+    the workspace, not of the mesh).
+    """
+    p = np.atleast_2d(points).reshape(-1, 3)
+    H = np.zeros((len(p), 3, 3, 3))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = step
+        H[:, :, :, k] = (gradient(p + e) - gradient(p - e)) / (2 * step)
+    return 0.5 * (H + H.transpose(0, 1, 3, 2))
 
 
 def embed_points(x: np.ndarray, gdim: int) -> np.ndarray:

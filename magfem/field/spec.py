@@ -387,6 +387,7 @@ class SolveSpec:
     air_factor: float = quantity(20.0, "", ge=3.0, doc="air radius / source size")
     solid_degree: int = integer(2, ge=1, le=3, doc="degree of the 3D scalar potential")
     hessian_step: float | None = quantity(None, "m", gt=0.0, doc="step for FE ∇∇B (taylor2)")
+    open_boundary: str = option("robin", ("robin", "dirichlet"), doc="outer boundary condition")
 
 
 def _solve_default() -> SolveSpec:
