@@ -9,7 +9,8 @@ Regenerate the robot gallery of docs/geometry.md with::
     .venv/bin/python -m magfem.plot docs/figures
 
 which writes ``robots_<shape>.png`` (800 × 600) for every shape with its
-default dimensions.
+default dimensions, and ``scene_coil_pair.png``: the coil pair of the
+experiments with the default one-arm trapezoid at its centre.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from mpi4py import MPI
 
-__all__ = ["MeshItem", "plot_mesh_groups", "plot_robot", "robot_grid"]
+__all__ = ["MeshItem", "plot_mesh_groups", "plot_robot", "plot_scene", "robot_grid", "source_grids"]
 
 WINDOW = (800, 600)
 _PALETTE = [
@@ -184,6 +185,105 @@ def plot_robot(
     )
 
 
+def source_grids(sources: Sequence[Any]) -> list[MeshItem]:
+    """Solid pictures of the field sources of a ``[field]`` table (rank-local, no MPI).
+
+    Coils and coil pairs are drawn as annular cylinders (their winding
+    cross-section), cylinder magnets as cylinders, block magnets as boxes,
+    each placed by its ``center`` and ``axis``. Uniform sources have no body.
+    """
+    import pyvista
+
+    from magfem.field.analytic import frame_matrix
+
+    items: list[MeshItem] = []
+    for i, src in enumerate(sources):
+        kind = src.kind
+        if kind == "uniform":
+            continue
+        center = np.asarray(src.center, dtype=float)
+        axis = np.asarray(src.axis, dtype=float)
+        axis = axis / np.linalg.norm(axis)
+        if kind in ("coil", "coil_pair"):
+            offsets = [0.0] if kind == "coil" else [-src.separation / 2, src.separation / 2]
+            for k, off in enumerate(offsets):
+                grid = pyvista.CylinderStructured(
+                    radius=np.linspace(src.inner_radius, src.outer_radius, 2),
+                    height=src.length,
+                    center=center + off * axis,
+                    direction=axis,
+                    theta_resolution=64,
+                    z_resolution=2,
+                )
+                items.append(
+                    MeshItem(
+                        grid,
+                        f"{kind} {i} winding {k + 1}",
+                        "#b87333",
+                        opacity=0.35,
+                        show_edges=False,
+                    )
+                )
+        elif kind == "cylinder_magnet":
+            grid = pyvista.Cylinder(
+                center=center, direction=axis, radius=src.radius, height=src.length, resolution=64
+            )
+            items.append(MeshItem(grid, f"magnet {i}", "#708090", show_edges=False))
+        elif kind == "block_magnet":
+            a, b, c = (0.5 * v for v in src.size)
+            box = pyvista.Box(bounds=(-a, a, -b, b, -c, c))
+            box.points = box.points @ frame_matrix(axis, src.roll).T + center
+            items.append(MeshItem(box, f"magnet {i}", "#708090", show_edges=False))
+    return items
+
+
+def plot_scene(
+    case: Any, path: Path | str, *, title: str | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+) -> Path | None:
+    """PNG of a case's robot inside its field sources (coils, magnets); rank 0 writes.
+
+    The robot is meshed on rank 0 alone (element size min_feature/4); the
+    sources are drawn from the ``[field]`` table. Call on all ranks.
+    """
+    grid = None
+    items: list[MeshItem] = []
+    if comm.rank == 0:
+        from magfem.geometry.robot_mesh import create_robot_mesh
+        from magfem.geometry.spec import MeshSpec
+
+        rm = create_robot_mesh(case.robot, MeshSpec(size=case.robot.min_feature / 4), MPI.COMM_SELF)
+        grid = robot_grid(rm, MPI.COMM_SELF)
+        items = [
+            *source_grids(case.field.sources),
+            MeshItem(grid, label="robot", color="#d62728", show_edges=False),
+        ]
+    return plot_mesh_groups(path, items, title=title or case.name, view="iso", comm=comm)
+
+
+def _scene_case() -> Any:
+    """The coil pair of the experiments (axis x) with the default trapezoid at its centre."""
+    from magfem.case import parse_case
+
+    return parse_case(
+        {
+            "name": "coil pair (115 mm, 35 mm thick, 70 mm apart) with a 7.5 mm trapezoid arm",
+            "robot": {"shape": "trapezoid", "thickness": "80 um"},
+            "mesh": {"size": "0.5 mm"},
+            "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3"},
+            "field": {
+                "sources": [
+                    {
+                        "kind": "coil_pair",
+                        "axis": [1, 0, 0],
+                        "flux_density": "2 mT",
+                        "waveform": {"kind": "dc"},
+                    }
+                ]
+            },
+        }
+    )
+
+
 def _gallery(outdir: Path) -> None:
     """Write robots_<shape>.png for every shape with default dimensions (rank 0)."""
     from magfem.config import from_table
@@ -194,6 +294,10 @@ def _gallery(outdir: Path) -> None:
         out = plot_robot(spec, outdir / f"robots_{shape}.png", title=f"{shape} (defaults)")
         if out is not None:
             print(out, flush=True)
+    case = _scene_case()
+    out = plot_scene(case, outdir / "scene_coil_pair.png", title=case.name)
+    if out is not None:
+        print(out, flush=True)
 
 
 if __name__ == "__main__":
