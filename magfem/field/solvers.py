@@ -5,7 +5,7 @@ measurements in docs/field.md so that B is within 0.1 % and ∇B within 1 %
 over the workspace at degree 3:
 
 * ``mesh_size`` = s / 15, s = radius of the source's bounding sphere;
-* ``workspace_mesh_size`` = workspace edge / 8;
+* ``workspace_mesh_size`` = workspace edge / 10;
 * air radius = ``air_factor`` × s (default 20: truncation error ~1e-4 of B
   at the centre of the coil pair).
 """
@@ -144,7 +144,7 @@ def solve_source(
         center=center,
         axis=axis,
         workspace=box_rz,
-        h_workspace=solve.workspace_mesh_size or ws / 8,
+        h_workspace=solve.workspace_mesh_size or ws / 10,
         hessian_step=hessian_step,
         open_boundary=solve.open_boundary,
         name=name,
