@@ -4,6 +4,8 @@
     magfem mesh  CASE [--out DIR]               build the robot mesh, write DIR/<name>.msh
     magfem field CASE [--out DIR]               solve the applied field, write VTX/CSV/PNG
     magfem run   CASE [--out DIR]               mesh + field + dynamics, write all outputs
+    magfem sweep CASE --param NAME=VALUES ...   parameter sweep, resumable (magfem.sweep)
+    magfem report [--run] [--only SCENE ...]    assemble docs/scenes.md (magfem.report)
 
 Safe under ``mpirun -n N``: every rank parses the case and takes part in the
 collective work, only rank 0 prints. Bad input gives one line on stderr,
@@ -122,7 +124,54 @@ def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
     return path
 
 
+def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    from magfem.sweep import parse_param, run_sweep
+
+    for text in args.params:  # syntax errors first, on every rank
+        parse_param(text)
+    if comm.size > 1:  # the driver is serial; each point may use --np ranks itself
+        raise CaseError("sweep", f"{comm.size} ranks", "run the sweep driver without mpirun")
+    out = Path(args.out) if args.out else Path("output") / "sweeps" / Path(args.case).stem
+    result = run_sweep(
+        args.case,
+        args.params,
+        out,
+        base_overrides=args.overrides,
+        jobs=args.jobs,
+        ranks=args.np,
+        retry_failed=args.retry_failed,
+        echo=None if args.quiet else print,
+    )
+    failed = [r["point"] for r in result.records if r.get("status") != "done"]
+    _say(
+        comm,
+        f"sweep     {len(result.records)} point(s): ran {len(result.ran)}, "
+        f"reused {len(result.skipped)}, not done {len(failed)}",
+    )
+    for label, path in result.paths.items():
+        _say(comm, f"wrote     {label}: {path}")
+    return 0 if not failed else EXIT_FAILURE
+
+
+def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    from magfem.report import build_report
+
+    if comm.size > 1:
+        raise CaseError("report", f"{comm.size} ranks", "run the report driver without mpirun")
+    path = build_report(
+        Path(args.out),
+        run=args.run,
+        only=args.only,
+        jobs=args.jobs,
+        docs=Path(args.docs),
+        echo=None if args.quiet else print,
+    )
+    _say(comm, f"wrote     report: {path}")
+    return 0
+
+
 _COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "field": _cmd_field, "run": _cmd_run}
+_DRIVERS = {"sweep": _cmd_sweep, "report": _cmd_report}
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -155,6 +204,39 @@ def _parser() -> argparse.ArgumentParser:
             s.add_argument("--out", help="output directory (default output/<case name>)")
         if name == "run":
             s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    text = "run a case over a grid of parameter values in parallel processes (resumable)"
+    s = sub.add_parser("sweep", help=text, description=text)
+    s.add_argument("case", help="base case file (TOML)")
+    s.add_argument(
+        "--param",
+        dest="params",
+        action="append",
+        default=[],
+        metavar="NAME=VALUES",
+        help="swept key: NAME=V1,V2,... or NAME=START:STOP:STEP[unit], e.g. "
+        "field.sources.0.waveform.frequency=10:200:20Hz (repeat for a grid)",
+    )
+    s.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override applied to every point",
+    )
+    s.add_argument("--jobs", type=int, default=1, help="points run at the same time")
+    s.add_argument("--np", type=int, default=1, help="MPI ranks per point (mpirun -n)")
+    s.add_argument("--out", help="sweep directory (default output/sweeps/<case stem>)")
+    s.add_argument("--retry-failed", action="store_true", help="rerun points that failed")
+    s.add_argument("-q", "--quiet", action="store_true", help="no per-point lines")
+    text = "run (or reuse) the scene studies and write docs/scenes.md"
+    s = sub.add_parser("report", help=text, description=text)
+    s.add_argument("--run", action="store_true", help="run missing studies (else only read)")
+    s.add_argument("--only", action="append", default=[], metavar="SCENE", help="scene id(s)")
+    s.add_argument("--jobs", type=int, default=2, help="runs at the same time")
+    s.add_argument("--out", default="output/report", help="where the runs go")
+    s.add_argument("--docs", default="docs", help="docs directory (scenes.md, figures/)")
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p
 
 
@@ -163,6 +245,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     comm = _comm()
     try:
+        if args.command in _DRIVERS:
+            return _DRIVERS[args.command](args, comm)
         from magfem.case import load_case
 
         case = load_case(args.case, args.overrides)

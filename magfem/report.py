@@ -1,0 +1,369 @@
+"""``magfem report``: run (or reuse) the scene studies and write docs/scenes.md.
+
+Every scene of issue 5 has one entry in :data:`STUDIES`: its case file, the
+runs that make its prediction (a :mod:`magfem.sweep` over one or more
+parameters, so an interrupted report resumes where it stopped) and the
+summary scalars to tabulate. ``magfem report --run`` runs what is missing
+(``--only ID`` restricts to some scenes); without ``--run`` it only reads
+finished runs. The page is rebuilt from scratch each time; for each scene it
+gives
+
+* the set-up: the case's description and command, the assumptions (every
+  case-file line marked ``# ASSUMED``) and the missing physics (its
+  ``# Missing`` comment), the model and why (its ``# Model:`` comment);
+* the predicted numbers (one table row per run, from the sweep summary),
+  the wall time of each run, and a figure (the sweep plot, or the angle
+  history of a single run) copied to ``docs/figures/scenes_<id>.png``;
+* for a scene not run or failed, that its prediction is missing and why.
+
+These are predictions: nothing is fitted to the paper's measured numbers
+(SCENES.md deliberately omits them).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from magfem.config import CaseError
+
+__all__ = ["STUDIES", "Study", "build_report"]
+
+
+@dataclass(frozen=True)
+class Study:
+    """One scene's prediction: a sweep of ``case`` over ``params`` with ``sets`` applied."""
+
+    ident: str
+    title: str
+    case: str
+    params: tuple[str, ...]
+    observe: str
+    sets: tuple[str, ...] = ()
+    columns: tuple[str, ...] = ()
+    notes: str = ""
+
+
+_F = "field.sources.0.waveform.frequency"
+_B = "field.sources.0.flux_density"
+
+STUDIES: tuple[Study, ...] = (
+    Study(
+        "one-arm-shapes",
+        "One-arm rectangle: max angle in one and two periods vs frequency, 2 mT",
+        "cases/one_arm_shapes_rectangle.toml",
+        (f"{_F}=10Hz,20Hz,50Hz,100Hz,200Hz",),
+        "max angle over 1 and 2 periods vs f; energy and power density",
+        columns=(
+            "max_angle_1period_arm",
+            "max_angle_2periods_arm",
+            "max_energy_density",
+            "power_density",
+        ),
+        notes="Trapezoid (cases/one_arm_trapezoid.toml) and triangle "
+        "(cases/one_arm_shapes_triangle.toml) are 3D solids; their sweeps are the same "
+        "command with those cases.",
+    ),
+    Study(
+        "one-arm-thickness",
+        "One-arm rectangle: max angle vs thickness, 2 mT, 20 Hz",
+        "cases/one_arm_shapes_rectangle.toml",
+        ("robot.thickness=100um,400um,700um,1000um",),
+        "max angle over 1 and 2 periods vs thickness",
+        columns=("max_angle_1period_arm", "max_angle_2periods_arm", "max_energy_density"),
+    ),
+    Study(
+        "active-length",
+        "Straight beam, quasi-static ramp 0 → 4 mT: angle vs field",
+        "cases/active_length.toml",
+        ("robot.thickness=100um,200um,500um,1000um",),
+        "final angle at 4 mT per thickness (active length: missing observable)",
+        columns=("final_angle_arm", "max_strain"),
+    ),
+    Study(
+        "two-arm-20hz",
+        "Two-arm strip, 2 mT, 20 Hz",
+        "cases/two_arm_20hz.toml",
+        ("time.end=50ms",),
+        "arm angle history; speed 0° → 90°",
+        columns=("max_angle_arm_right", "max_angle_arm_left", "max_strain"),
+    ),
+    Study(
+        "two-arm-rect",
+        "Two-arm rectangle 6 × 0.8 mm², 45 µm: largest angle per drive",
+        "cases/two_arm_rect.toml",
+        (f"{_B}=4mT,9mT,2mT", f"{_F}=80Hz,100Hz,200Hz"),
+        "largest angle at 4 mT/80 Hz, 9 mT/100 Hz, 2 mT/200 Hz (diagonal of the grid)",
+        columns=("max_angle_arm_right", "max_angle_arm_left"),
+    ),
+    Study(
+        "self-clean",
+        "Arm shaken at 4 mT, 30 Hz",
+        "cases/self_clean.toml",
+        ("time.end=66.7ms",),
+        "shaking amplitude = max angle over two periods",
+        columns=("max_angle_1period_arm", "max_angle_2periods_arm"),
+    ),
+    Study(
+        "one-arm-triangle",
+        "One-arm triangle 4 × 7.5 mm², 80 µm, 4 mT, 60 Hz",
+        "cases/one_arm_triangle.toml",
+        ("time.end=16.7ms",),
+        "angle history over one period",
+        columns=("max_angle_1period_arm",),
+    ),
+    Study(
+        "five-arm",
+        "Five-arm star, in-plane 2 mT",
+        "cases/five_arm.toml",
+        ("time.end=20ms",),
+        "rotation of the lifted arm (reaches 90°?)",
+        columns=("max_angle_arm_1", "final_angle_arm_1"),
+    ),
+    Study(
+        "flower",
+        "Flower gripper: trigger then 3 mT, 50 Hz",
+        "cases/flower.toml",
+        ("time.end=25ms",),
+        "closing and reopening times (from the petal angles)",
+        columns=("max_angle_petal_1", "max_angle_petal_6"),
+    ),
+    Study(
+        "failure",
+        "Failure triangles I–III at 45, 85, 180 µm, 4 mT",
+        "cases/failure.toml",
+        ("robot.type=I,II,III", "robot.thickness=45um,85um,180um"),
+        "collapse vs partial bending (indicators: missing observables)",
+        columns=("max_angle_arm", "max_strain"),
+    ),
+    Study(
+        "bow-tie",
+        "Bow-tie at 10–30 Hz, 2 mT",
+        "cases/bow_tie.toml",
+        (f"{_F}=10Hz,20Hz,30Hz",),
+        "arm sequence; arms touching (needs self-contact: missing)",
+        columns=("max_angle_arm_left", "max_angle_arm_right"),
+    ),
+)
+"""The scene studies, cheapest first."""
+
+
+def _case_notes(path: Path) -> dict[str, list[str]]:
+    """Comment lines of a case file: ASSUMED keys, Model and Missing notes."""
+    notes: dict[str, list[str]] = {"assumed": [], "model": [], "missing": [], "head": []}
+    current: str | None = None
+    for line in path.read_text(encoding="utf-8").splitlines():
+        stripped = line.strip()
+        code, _, comment = line.partition("#")
+        if "ASSUMED" in comment and code.strip():
+            key, _, value = code.partition("=")
+            why = comment.replace("ASSUMED", "").strip(" :;,").removeprefix("(").removesuffix(")")
+            notes["assumed"].append(
+                f"`{key.strip()} = {value.strip()}`" + (f" ({why})" if why else "")
+            )
+            current = None
+        elif stripped.startswith("# Model:"):
+            notes["model"].append(stripped.removeprefix("# Model:").strip())
+            current = "model"
+        elif stripped.startswith("# Missing"):
+            notes["missing"].append(stripped.removeprefix("#").strip())
+            current = "missing"
+        elif stripped.startswith("#") and current and not stripped.startswith("# Run"):
+            notes[current][-1] += " " + stripped.lstrip("# ").strip()
+        else:
+            current = None
+    return notes
+
+
+def _fmt(key: str, value: Any) -> str:
+    if not isinstance(value, int | float) or (isinstance(value, float) and math.isnan(value)):
+        return "–"
+    if "angle" in key:
+        return f"{math.degrees(value):.1f}°"
+    return f"{value:.3g}"
+
+
+def _unit(key: str) -> str:
+    if "energy_density" in key:
+        return " (J/m³)"
+    if "power_density" in key:
+        return " (W/m³)"
+    return ""
+
+
+def build_report(
+    out: Path,
+    *,
+    run: bool = False,
+    only: Sequence[str] = (),
+    jobs: int = 2,
+    docs: Path = Path("docs"),
+    echo: Callable[[str], None] | None = print,
+) -> Path:
+    """Run (``run=True``) or read the studies and write ``docs/scenes.md``.
+
+    Raises:
+        CaseError: an unknown scene id in ``only``.
+    """
+    from magfem.sweep import run_sweep
+
+    known = {s.ident for s in STUDIES}
+    for ident in only:
+        if ident not in known:
+            raise CaseError("--only", ident, "unknown scene; one of " + ", ".join(sorted(known)))
+    figures = docs / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
+    lines = [
+        "# Seed scenes: predictions",
+        "",
+        "Generated by `magfem report` (magfem/report.py); regenerate the numbers with "
+        "`magfem report --run` (resumes finished runs; `--only ID` for one scene). "
+        "These are **predictions** of the cases in `cases/`, not fits: no parameter was "
+        "tuned to a measured number. Assumptions are listed per scene (the `# ASSUMED` "
+        "lines of each case file). Angles are the unwrapped tip bending angle (DESIGN.md).",
+        "",
+        "| scene | status | runs | wall time (s) |",
+        "| --- | --- | --- | --- |",
+    ]
+    body: list[str] = []
+    for study in STUDIES:
+        sweep_dir = out / study.ident
+        selected = not only or study.ident in only
+        records: list[dict[str, Any]] = []
+        reason = ""
+        if (run and selected) or (sweep_dir / "summary.csv").is_file():
+            try:
+                if run and selected:
+                    records = run_sweep(
+                        study.case,
+                        list(study.params),
+                        sweep_dir,
+                        base_overrides=list(study.sets),
+                        jobs=jobs,
+                        echo=echo,
+                    ).records
+                else:
+                    records = _read_only(sweep_dir)
+            except CaseError as err:
+                reason = f"case error: {err}"
+        else:
+            reason = f"not run yet (`magfem report --run --only {study.ident}`)"
+        done = [r for r in records if r.get("status") == "done"]
+        failed = [r for r in records if r.get("status") == "failed"]
+        wall = sum(float(r.get("wall_s", 0.0)) for r in records)
+        status = (
+            "predicted"
+            if records and len(done) == len(records)
+            else ("partial" if done else "missing")
+        )
+        lines.append(
+            f"| [{study.ident}](#{study.ident}) | {status} | {len(done)}/{len(records) or '–'} "
+            f"| {wall:.0f} |"
+        )
+        body += _scene_section(study, records, done, failed, reason, sweep_dir, figures, docs)
+    text = "\n".join([*lines, "", *body]) + "\n"
+    path = docs / "scenes.md"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _read_only(sweep_dir: Path) -> list[dict[str, Any]]:
+    """Records of a finished sweep directory (point.json files), without running."""
+    import json
+
+    records = []
+    for pj in sorted((sweep_dir / "points").glob("*/point.json")):
+        rec = json.loads(pj.read_text(encoding="utf-8"))
+        records.append({"point": pj.parent.name} | rec)
+    return records
+
+
+def _scene_section(
+    study: Study,
+    records: list[dict[str, Any]],
+    done: list[dict[str, Any]],
+    failed: list[dict[str, Any]],
+    reason: str,
+    sweep_dir: Path,
+    figures: Path,
+    docs: Path,
+) -> list[str]:
+    case = Path(study.case)
+    notes = _case_notes(case)
+    params = " ".join(f"--param {p}" for p in study.params)
+    sets = " ".join(f"--set {s}" for s in study.sets)
+    out = [
+        f"## {study.ident}",
+        "",
+        f"**{study.title}.** Observe: {study.observe}.",
+        "",
+        f"- case: `{study.case}`; study: `magfem sweep {study.case} {params} {sets}`".rstrip(),
+        f"- model: {' '.join(notes['model']) or 'see the case file'}",
+    ]
+    if notes["missing"]:
+        out.append(f"- {' '.join(notes['missing'])}")
+    if study.notes:
+        out.append(f"- {study.notes}")
+    if notes["assumed"]:
+        out.append("- assumed: " + "; ".join(notes["assumed"]))
+    out.append("")
+    if reason:
+        out += [f"**Prediction missing:** {reason}.", ""]
+    if records:
+        names = list(records[0]["params"])
+        cols = list(study.columns)
+        out.append(
+            "| " + " | ".join([*names, "status", "wall (s)", *(c + _unit(c) for c in cols)]) + " |"
+        )
+        out.append("|" + " --- |" * (len(names) + 2 + len(cols)))
+        for rec in records:
+            summ = rec.get("summary", {})
+            out.append(
+                "| "
+                + " | ".join(
+                    [
+                        *(str(rec["params"][n]) for n in names),
+                        str(rec.get("status", "missing")),
+                        f"{float(rec.get('wall_s', math.nan)):.0f}",
+                        *(_fmt(c, summ.get(c)) for c in cols),
+                    ]
+                )
+                + " |"
+            )
+        out.append("")
+    if failed:
+        out.append(
+            f"**{len(failed)} run(s) failed** (solver); the table shows what they reached "
+            "before failing (`end_time` in the summary). Last log lines:"
+        )
+        for rec in failed[:3]:
+            log = sweep_dir / "points" / rec["point"] / "run.log"
+            last = (
+                log.read_text(encoding="utf-8").strip().splitlines()[-1:] if log.is_file() else []
+            )
+            out.append(f"  - `{rec['params']}`: `{last[0][:200] if last else '?'}`")
+        out.append("")
+    fig = _figure(study, done, sweep_dir, figures)
+    if fig is not None:
+        out += [f"![{study.ident}]({fig.relative_to(docs).as_posix()})", ""]
+    return out
+
+
+def _figure(
+    study: Study, done: list[dict[str, Any]], sweep_dir: Path, figures: Path
+) -> Path | None:
+    src = None
+    if len(done) == 1:
+        src = sweep_dir / "points" / done[0]["point"] / "angle.png"
+    elif len(done) > 1:
+        src = sweep_dir / "sweep.png"
+    if src is None or not src.is_file():
+        return None
+    dest = figures / f"scenes_{re.sub(r'[^a-z0-9]+', '_', study.ident)}.png"
+    shutil.copyfile(src, dest)
+    return dest

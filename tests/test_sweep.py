@@ -1,0 +1,132 @@
+"""``magfem sweep``: parameter syntax, resume after a kill, summary table and plot."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import tomli_w
+
+from magfem.cli import main
+from magfem.config import CaseError
+from magfem.sweep import parse_param
+
+# A 4 mm strip arm, 4 x 0.5 mm P2 quads, a few steps: ~3 s per point with a warm JIT cache.
+CASE = {
+    "name": "sweep_probe",
+    "robot": {
+        "shape": "rectangle",
+        "thickness": "100 um",
+        "length": "4 mm",
+        "width": "1 mm",
+        "clamp_length": "0.5 mm",
+    },
+    "mesh": {"size": "0.5 mm", "model": "strip"},
+    "material": {
+        "shear_modulus": "115 kPa",
+        "density": "2130 kg/m^3",
+        "remanence": "123 kA/m",
+    },
+    "field": {
+        "sources": [
+            {
+                "kind": "uniform",
+                "flux_density": "4 mT",
+                "direction": [-1, 0, 0],
+                "waveform": {"kind": "square", "frequency": "100 Hz"},
+            }
+        ]
+    },
+    "time": {"end": "2 ms", "step": "0.25 ms"},
+    "environment": {"gravity": [0, 0, 0]},
+    "output": {"vtx_every": 0, "plot": False},
+}
+
+
+def _case_file(directory):
+    path = directory / "sweep_probe.toml"
+    path.write_text(tomli_w.dumps(CASE))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("text", "values"),
+    [
+        ("f=10:200:20Hz", [f"{v}Hz" for v in range(10, 200, 20)]),
+        ("robot.thickness=100:1000:300um", ["100um", "400um", "700um", "1000um"]),
+        ("robot.type=I,II,III", ["I", "II", "III"]),
+        ("a.b=0.1:0.3:0.1", ["0.1", "0.2", "0.3"]),  # STOP hit despite rounding
+        ('x="2 mT", 3mT', ['"2 mT"', "3mT"]),
+    ],
+)
+def test_parse_param(text, values):
+    assert parse_param(text)[1] == values
+
+
+@pytest.mark.parametrize(
+    "text", ["robot.thickness", "=1,2", "a=", "a=1,,2", "a=1:2", "a=5:1:1", "a=1:5:0um", "a b=1"]
+)
+def test_bad_param_is_a_case_error(text):
+    with pytest.raises(CaseError, match="--param"):
+        parse_param(text)
+
+
+def test_bad_param_syntax_exits_2_with_one_line(shared_tmp, comm, capsys):
+    path = _case_file(shared_tmp) if comm.rank == 0 else shared_tmp / "sweep_probe.toml"
+    comm.barrier()
+    code = main(["sweep", str(path), "--param", "robot.thickness=100um:200um"])
+    err = capsys.readouterr().err
+    assert code == 2
+    if comm.rank == 0:
+        lines = err.strip().splitlines()
+        assert len(lines) == 1, err
+        assert "--param" in lines[0] and "START:STOP:STEP" in lines[0]
+
+
+def _summary(path):
+    with path.open(newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.serial
+def test_killed_sweep_resumes_without_recomputing(tmp_path):
+    """Kill the whole sweep (driver + running point) after the first point; rerun."""
+    case = _case_file(tmp_path)
+    out = tmp_path / "sweep"
+    cmd = [sys.executable, "-m", "magfem", "sweep", str(case), "--out", str(out), "-q"]
+    cmd += ["--param", "field.sources.0.waveform.frequency=100:200:100Hz", "--jobs", "1"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL)
+    deadline = time.monotonic() + 240
+    try:
+        while not list(out.glob("points/*/point.json")):
+            assert proc.poll() is None, "sweep ended before the first point finished"
+            assert time.monotonic() < deadline, "first point did not finish in 240 s"
+            time.sleep(0.2)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the group of the process started above
+        proc.wait()
+    (first,) = out.glob("points/*/point.json")
+    stamps = {p: p.stat().st_mtime_ns for p in first.parent.iterdir()}
+    assert main(cmd[3:]) == 0
+    # finished point untouched (same files, same modification times), the other one done
+    assert {p: p.stat().st_mtime_ns for p in first.parent.iterdir()} == stamps
+    log = (out / "sweep.log").read_text()
+    ident = first.parent.name
+    assert log.count(f"start {ident}") == 1, log
+    assert "1 finished, 1 to run" in log
+    rows = _summary(out / "summary.csv")
+    assert [r["field.sources.0.waveform.frequency"] for r in rows] == ["100Hz", "200Hz"]
+    assert [float(r["field.sources.0.waveform.frequency (SI)"]) for r in rows] == [100, 200]
+    assert all(r["status"] == "done" for r in rows)
+    # both runs cover 2 ms = 1/5 and 2/5 of a period: the arm lifts (torque M x B lifts it)
+    assert all(float(r["max_angle_arm"]) > 0.01 for r in rows)
+    assert (out / "sweep.png").stat().st_size > 1000
+    # a third call reuses everything: no new "start" line
+    starts = (out / "sweep.log").read_text().count(" start ")
+    assert main(cmd[3:]) == 0
+    assert (out / "sweep.log").read_text().count(" start ") == starts
