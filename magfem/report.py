@@ -193,6 +193,8 @@ def _unit(key: str) -> str:
         return " (J/m³)"
     if "power_density" in key:
         return " (W/m³)"
+    if key == "end_time":
+        return " (s)"
     return ""
 
 
@@ -316,7 +318,15 @@ def _scene_section(
         out += [f"**Prediction missing:** {reason}.", ""]
     if records:
         names = list(records[0]["params"])
-        cols = list(study.columns)
+        arms = sorted(
+            {
+                k
+                for r in records
+                for k in r.get("summary", {})
+                if k.startswith("max_angle_") and "period" not in k
+            }
+        )
+        cols = list(dict.fromkeys([*study.columns, *arms, "end_time"]))
         out.append(
             "| " + " | ".join([*names, "status", "wall (s)", *(c + _unit(c) for c in cols)]) + " |"
         )
