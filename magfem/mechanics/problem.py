@@ -183,6 +183,38 @@ def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list,
     return bcs, not has_any
 
 
+def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> ufl.Measure:
+    """The boundary measure of ``[contact] surfaces`` (facet groups that may touch the ground).
+
+    ``"all"`` is the whole boundary. The default names (``bottom``, ``clamp``)
+    are skipped where a robot lacks them; any other unknown name, a cell group,
+    or a list that matches no facet group raises.
+    """
+    names = case.contact.surfaces
+    if "all" in names:
+        return ds
+    tdim = robot.mesh.topology.dim
+    tags: list[int] = []
+    for i, name in enumerate(names):
+        if name not in robot.groups:
+            if name in ("bottom", "clamp"):
+                continue
+            raise CaseError(
+                f"contact.surfaces[{i}]",
+                name,
+                'no such facet group; groups are "all", ' + ", ".join(sorted(robot.groups)),
+            )
+        dim, tag = robot.groups[name]
+        if dim != tdim - 1:
+            raise CaseError(f"contact.surfaces[{i}]", name, "is not a facet group")
+        tags.append(tag)
+    if not tags:
+        raise CaseError(
+            "contact.surfaces", list(names), 'matches no facet group of this robot; use "all"'
+        )
+    return ds(tuple(tags))
+
+
 def build_membrane_problem(
     case: Case, robot: RobotMesh, field: FieldModel, *, dt: float | None = None
 ) -> MembraneProblem:
@@ -259,12 +291,14 @@ def build_membrane_problem(
             law, domain, vertical=gdim - 1, ground_height=case.contact.ground_height
         )
 
+    ds_contact = _contact_measure(case, robot, ds)
+
     def residual(u_: Any, v_: Any, a_: Any, t_: Any) -> ufl.Form:
         form = ufl.replace(internal, {placeholder: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
         if contact is not None:
-            form = form - contact.work(X + u_, v_, w, ds)
+            form = form - contact.work(X + u_, v_, w, ds_contact)
         return form
 
     F_step = integ.discretise(residual)
@@ -279,7 +313,7 @@ def build_membrane_problem(
         "magnetic": material.magnetic_energy(Fu, M, Bu) * dx,
         "gravity": -rho * ufl.dot(g, u) * dx,
     }
-    contact_forms = contact.force_forms(X + u, v1, ds) if contact is not None else []
+    contact_forms = contact.force_forms(X + u, v1, ds_contact) if contact is not None else []
     return MembraneProblem(
         robot=robot,
         u=u,

@@ -137,7 +137,12 @@ class MembraneSimulation:
         self.integrator = self.problem.integrator
         self.u = self.problem.u
         self.solver = NewtonSolver(
-            self.problem.residual, self.u, self.problem.bcs, case.solver, name="step"
+            self.problem.residual,
+            self.u,
+            self.problem.bcs,
+            case.solver,
+            name="step",
+            homogeneous_bcs=True,
         )
         t1 = _time.perf_counter()
         self.energy_forms = {

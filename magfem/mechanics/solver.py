@@ -106,6 +106,12 @@ class NewtonSolver:
         spec: solver settings.
         name: a word for the options prefix (``magfem_<name>_<n>_``).
         J: Jacobian form (default ``ufl.derivative(F, u)``).
+        homogeneous_bcs: every condition in ``bcs`` prescribes zero and the
+            initial ``u`` is zero on its dofs. Newton then never moves those
+            dofs, the lifting term A (g − x) of dolfinx's residual is exactly
+            zero, and the residual skips it (``apply_lifting`` computes the
+            element Jacobians of every cell touching a constrained dof: on the
+            default case that was 15 ms of a 27 ms residual).
 
     The forms are compiled once here (timed in ``timings.compile``).
     """
@@ -119,6 +125,7 @@ class NewtonSolver:
         *,
         name: str = "newton",
         J: ufl.Form | None = None,
+        homogeneous_bcs: bool = False,
     ):
         self.u = u
         self.spec = spec
@@ -138,9 +145,9 @@ class NewtonSolver:
             jit_options=JIT_OPTIONS,
         )
         self.timings.compile += time.perf_counter() - t0
-        self._wrap_callbacks(list(bcs))
+        self._wrap_callbacks(list(bcs), homogeneous_bcs)
 
-    def _wrap_callbacks(self, bcs: list[fem.DirichletBC]) -> None:
+    def _wrap_callbacks(self, bcs: list[fem.DirichletBC], homogeneous: bool) -> None:
         """Re-register dolfinx's assembly callbacks with timers around them."""
         problem = self.problem
         snes = problem.solver
@@ -148,7 +155,17 @@ class NewtonSolver:
 
         def residual(snes_: Any, x: Any, b: Any) -> None:
             t0 = time.perf_counter()
-            fem_petsc.assemble_residual(snes_, x, b, problem.u, problem.F, problem.J, bcs)
+            if homogeneous:
+                x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                fem_petsc.assign(x, problem.u)  # type: ignore[arg-type]
+                with b.localForm() as b_local:
+                    b_local.set(0.0)
+                fem_petsc.assemble_vector(b, problem.F)  # type: ignore[arg-type]
+                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
+                b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            else:
+                fem_petsc.assemble_residual(snes_, x, b, problem.u, problem.F, problem.J, bcs)
             timings.residual += time.perf_counter() - t0
             timings.residual_calls += 1
 
