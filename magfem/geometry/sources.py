@@ -75,6 +75,20 @@ def _size_fields(
     f.setNumber(thr, "DistMin", h_source)
     f.setNumber(thr, "DistMax", r_air)
     fields = [thr]
+    if dim == 3:  # field singular (log) at a magnet's edges: refine them further
+        edges = gmsh.model.getBoundary(
+            [(2, s) for s in source_entities], combined=False, oriented=False
+        )
+        dist_e = f.add("Distance")
+        f.setNumbers(dist_e, "CurvesList", sorted({abs(e[1]) for e in edges}))
+        f.setNumber(dist_e, "Sampling", 40)
+        thr_e = f.add("Threshold")
+        f.setNumber(thr_e, "InField", dist_e)
+        f.setNumber(thr_e, "SizeMin", h_source / 3)
+        f.setNumber(thr_e, "SizeMax", r_air / 8)
+        f.setNumber(thr_e, "DistMin", h_source / 3)
+        f.setNumber(thr_e, "DistMax", r_air)
+        fields.append(thr_e)
     if box is not None and h_workspace is not None:
         b = f.add("Box")
         f.setNumber(b, "VIn", h_workspace)
