@@ -365,7 +365,7 @@ class FEFieldModel(FieldModel):
     def bind(self, domain: Any) -> None:
         from dolfinx import fem
 
-        deg = domain.geometry.cmap.degree
+        deg = max(2, domain.geometry.cmaps[0].degree)
         self._gdim = domain.geometry.dim
         V3 = fem.functionspace(domain, ("Lagrange", deg, (3,)))
         VG = fem.functionspace(domain, ("Lagrange", deg, (3, 3)))
