@@ -129,6 +129,11 @@ class AxisymmetricField(SourceField):
         vals = self._eval([*self.B, *self.dB], rz)
         return np.hstack(vals[:2]), np.hstack(vals[2:]), c, s, r
 
+    def covers(self, points: np.ndarray) -> np.ndarray:
+        # the outer boundary is a polygon inscribed in the circle/sphere of radius r_air
+        d = np.atleast_2d(points).reshape(-1, 3) - self.center
+        return np.linalg.norm(d, axis=1) < 0.99 * self.r_air
+
     def flux_density(self, points: np.ndarray) -> np.ndarray:
         b, _, c, s, _ = self._values(points)
         loc = np.column_stack([b[:, 0] * c, b[:, 0] * s, b[:, 1]])

@@ -84,6 +84,10 @@ class SourceField:
         """∇∇B at ``points`` (N, 3) → (N, 3, 3, 3), T/m²."""
         raise NotImplementedError
 
+    def covers(self, points: np.ndarray) -> np.ndarray:
+        """Mask (N,) of ``points`` (N, 3) where the field can be evaluated (its air region)."""
+        return np.ones(len(np.atleast_2d(points)), dtype=bool)
+
 
 class UniformField(SourceField):
     """A spatially uniform flux density ``vector`` (shape (3,), T)."""
@@ -132,7 +136,7 @@ def embed_points(x: np.ndarray, gdim: int) -> np.ndarray:
     raise ValueError(f"gdim must be 2 or 3, got {gdim}")
 
 
-def workspace_points(center: Sequence[float], size: float, n: int = 5) -> np.ndarray:
+def workspace_points(center: Sequence[float] | np.ndarray, size: float, n: int = 5) -> np.ndarray:
     """Grid of n³ points filling the cube of edge ``size`` (m) about ``center``: (n³, 3)."""
     s = np.linspace(-size / 2, size / 2, n)
     g = np.stack(np.meshgrid(s, s, s, indexing="ij"), axis=-1).reshape(-1, 3)

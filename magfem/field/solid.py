@@ -76,6 +76,7 @@ class SolidField(SourceField):
         self.phi, self.H, self.dH = phi, H, dH
         self.magnets = list(magnets)
         self.r_air = r_air
+        self._center = np.mean([m.center for m in magnets], axis=0)
         self.hessian_step = hessian_step
         self.name = name
         self.timings = timings
@@ -84,6 +85,11 @@ class SolidField(SourceField):
         self._eval = PointEvaluator(
             phi.function_space.mesh, f"air region of {name} (radius {r_air:g} m)"
         )
+
+    def covers(self, points: np.ndarray) -> np.ndarray:
+        # the outer boundary is a polygon inscribed in the circle/sphere of radius r_air
+        d = np.atleast_2d(points).reshape(-1, 3) - self._center
+        return np.linalg.norm(d, axis=1) < 0.99 * self.r_air
 
     def flux_density(self, points: np.ndarray) -> np.ndarray:
         p = np.atleast_2d(points).reshape(-1, 3)
