@@ -216,3 +216,38 @@ def test_static_strip_matches_elastica_and_p1_locks(comm, degree, size, bound):
     assert abs(tip_angle(degree) - exact) < bound
     if size == "0.5 mm":
         assert tip_angle(1) < 0.5 * exact  # P1 locks: measured 12.2° vs 65.9°
+
+
+def test_strain_probe_excludes_the_support_zone(comm):
+    """ε_a of a uniform stretch ε plus a spike at the clamp edge: the spike is excluded.
+
+    u_x = ε x + a (x − h)²/h² for x < h (zero beyond; h = 0.5 mm, the cell length) is
+    exactly P2, so the stretch is 1 + ε at every vertex except x = 0, where it is
+    1 + ε + 2a/h (a < 0 pulls). With the supports at x = 0 and a radius of one
+    thickness, the probe must return ε to round-off (1e-9); without them, ε + 2|a|/h.
+    """
+    from dolfinx import fem
+
+    from magfem.mechanics.observers import StrainProbe
+
+    sim = MembraneSimulation(_case(time={"end": "0.25 ms"}), comm)
+    eps, a, h = 0.01, -2e-5, 0.5e-3
+    u = fem.Function(sim.u.function_space)
+    u.interpolate(
+        lambda X: np.vstack(
+            [eps * X[0] + a * np.where(X[0] < h, (X[0] - h) ** 2 / h**2, 0.0), 0 * X[1]]
+        )
+    )
+    root = np.array([[0.0, z, 0.0] for z in np.linspace(0, 80e-6, 5)])
+    assert StrainProbe(u, root, radius=80e-6)() == pytest.approx(eps, abs=1e-9)
+    assert StrainProbe(u)() == pytest.approx(eps + 2 * abs(a) / h, rel=1e-6)
+
+
+def test_contact_surfaces_name_facet_groups(comm):
+    """[contact] surfaces: unknown names and cell groups raise CaseError naming the key."""
+    from magfem.config import CaseError
+
+    for bad in (["nowhere"], ["arm"]):
+        case = _case(contact={"ground": True, "surfaces": bad})
+        with pytest.raises(CaseError, match=r"contact\.surfaces"):
+            MembraneSimulation(case, comm)

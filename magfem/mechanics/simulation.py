@@ -158,7 +158,9 @@ class MembraneSimulation:
         self._angle_points = pts
         self._angle_eval = PointEvaluator(self.u.function_space, pts) if pts is not None else None
         self._unwrap = {name: AngleUnwrapper() for name in self.arms}
-        self.strain_probe = StrainProbe(self.u)
+        self.strain_probe = StrainProbe(
+            self.u, self._support_points(), radius=robot_mesh.thickness * (1 + 1e-6)
+        )
         self.width = self._strip_width()
         self.frequency = drive_frequency(case)
         self.log: list[str] = []
@@ -166,6 +168,18 @@ class MembraneSimulation:
         self.steps = 0
         self.newton_iterations = 0
         self.cuts = 0
+
+    def _support_points(self) -> npt.NDArray[np.float64]:
+        """Reference coordinates (N, 3) of the clamped dofs, gathered from every rank (m)."""
+        V = self.u.function_space
+        coords = V.tabulate_dof_coordinates()
+        bs = V.dofmap.index_map_bs
+        nodes = [np.zeros(0, dtype=np.int64)]
+        for bc in self.problem.bcs:
+            dofs, owned = bc.dof_indices()
+            nodes.append(np.asarray(dofs[:owned]) // bs)
+        mine = coords[np.unique(np.concatenate(nodes))]
+        return np.vstack(self.comm.allgather(mine))
 
     def _strip_width(self) -> float:
         """Width (m) that turns per-unit-width strip quantities into totals (1 for solids)."""
