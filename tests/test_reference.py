@@ -107,3 +107,19 @@ def test_penalty_penetration_and_sliding_references():
     # Coulomb limit while v >> v_ε
     t = ref.regularized_sliding_time(0.02, v0, mu, eps)
     assert ref.sliding_velocity(t, v0, mu)[()] == pytest.approx(0.02, rel=1e-3)
+
+
+def test_regularized_sliding_distance():
+    mu, eps, v0, g = 0.5, 1e-3, 0.02, 9.8
+    sol = integrate.solve_ivp(
+        lambda t, y: [y[1], -mu * g * y[1] / np.hypot(y[1], eps)],
+        (0, 0.05),
+        [0.0, v0],
+        rtol=1e-11,
+        atol=1e-15,
+    )
+    assert ref.regularized_sliding_distance(v0, mu, eps) == pytest.approx(sol.y[0, -1], rel=1e-6)
+    # Coulomb limit
+    assert ref.regularized_sliding_distance(v0, mu, 1e-9) == pytest.approx(
+        v0**2 / (2 * mu * g), rel=1e-9
+    )

@@ -80,7 +80,10 @@ A rigid block sliding on the ground with Coulomb friction decelerates at
 t_t = −μ_f p v / sqrt(v² + v_ε²), dv/dt = −μ_f g v / sqrt(v² + v_ε²)
 integrates in closed form (:func:`regularized_sliding_time`): with
 G(v) = sqrt(v² + v_ε²) − v_ε ln((v_ε + sqrt(v² + v_ε²)) / v),
-μ_f g t = G(v0) − G(v).
+μ_f g t = G(v0) − G(v). The distance to rest is
+∫ v dt = ∫₀^{v0} sqrt(v² + v_ε²) dv / (μ_f g)
+= [v0 sqrt(v0² + v_ε²) + v_ε² asinh(v0/v_ε)] / (2 μ_f g)
+(:func:`regularized_sliding_distance`; v0²/(2 μ_f g) for Coulomb).
 """
 
 from __future__ import annotations
@@ -102,6 +105,7 @@ __all__ = [
     "hard_magnetic_elastica",
     "penalty_penetration",
     "poisson_ratio",
+    "regularized_sliding_distance",
     "regularized_sliding_time",
     "resting_pressure",
     "sliding_velocity",
@@ -330,3 +334,14 @@ def regularized_sliding_time(
     if not 0 < speed <= initial_speed:
         raise ValueError("need 0 < speed <= initial_speed")
     return (g(initial_speed) - g(speed)) / (friction * gravity)
+
+
+def regularized_sliding_distance(
+    initial_speed: float, friction: float, regularization_velocity: float, gravity: float = 9.8
+) -> float:
+    """Distance (m) a block slides to rest under regularised Coulomb friction.
+
+    [v0 sqrt(v0² + v_ε²) + v_ε² asinh(v0/v_ε)] / (2 μ_f g); v0²/(2 μ_f g) as v_ε → 0.
+    """
+    v0, eps = initial_speed, regularization_velocity
+    return (v0 * math.hypot(v0, eps) + eps**2 * math.asinh(v0 / eps)) / (2.0 * friction * gravity)
