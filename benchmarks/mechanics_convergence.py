@@ -1,0 +1,154 @@
+"""Speed/accuracy of the mechanics: mesh levels × time steps, 3D solid and 2D strip.
+
+For a case (default: ``cases/one_arm_trapezoid.toml``) over a time window
+(default: the first 10 ms, the arm's first swing to ~90°), every combination
+of in-plane mesh size and nominal time step is run; the tip-angle history of
+each run is compared with the finest run (interpolated on its time grid):
+the largest difference over the window and the difference at its end. Wall
+time is split as the simulation reports it (form compilation, residual and
+Jacobian assembly, linear solves). A second table does the same for the
+2D strip model against the 3D solid on a uniform-width arm
+(``cases/one_arm_shapes_rectangle.toml`` with the trapezoid's thickness),
+whose converged reference is the finest 3D run.
+
+Run on 2 cores (timings vary ~30 % between identical runs)::
+
+    .venv/bin/mpirun -n 2 .venv/bin/python benchmarks/mechanics_convergence.py
+    .venv/bin/python benchmarks/mechanics_convergence.py --window 0.005 --sizes 2e-3 1e-3 \\
+        --steps 1e-3 5e-4      # quick look
+
+Prints the tables (rank 0) and writes them as JSON with ``--json PATH``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+import magfem  # noqa: F401  (MPI before dolfinx)
+from magfem.case import load_case
+from magfem.mechanics import MembraneSimulation
+from magfem.parallel import rank0_print
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, Any]:
+    """Run a case with overrides; returns history arrays, timings and step statistics."""
+    case = load_case(case_path, overrides)
+    t0 = time.perf_counter()
+    sim = MembraneSimulation(case, comm)
+    result = sim.run(None, progress=False)
+    wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    angle_key = next(k for k in result.history if k.startswith("angle_"))
+    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
+    timings = {k: comm.allreduce(v, op=MPI.MAX) for k, v in result.timings.items()}
+    return {
+        "time": result.history["time"],
+        "angle": result.history[angle_key],
+        "wall": wall,
+        "timings": timings,
+        "dofs": dofs,
+        "steps": int(result.summary["steps"]),
+        "newton": result.summary["mean_newton_iterations"],
+        "cuts": int(result.summary["cuts"]),
+    }
+
+
+def compare(run: dict[str, Any], reference: dict[str, Any]) -> tuple[float, float]:
+    """(max |Δangle| over the window, |Δangle| at its end), degrees."""
+    ref_on_run = np.interp(run["time"], reference["time"], reference["angle"])
+    diff = np.degrees(np.abs(run["angle"] - ref_on_run))
+    return float(diff.max()), float(diff[-1])
+
+
+def table(title: str, rows: list[dict[str, Any]], reference: dict[str, Any]) -> list[str]:
+    lines = [
+        title,
+        f"{'model':6} {'size mm':>7} {'dt ms':>6} {'dofs':>6} {'steps':>5} {'newton':>6} "
+        f"{'cuts':>4} {'wall s':>7} {'compile':>7} {'resid':>6} {'jacob':>6} {'solve':>6} "
+        f"{'max err°':>8} {'end err°':>8} {'end angle°':>10}",
+    ]
+    for r in rows:
+        err_max, err_end = compare(r, reference)
+        t = r["timings"]
+        lines.append(
+            f"{r['model']:6} {r['size'] * 1e3:7.3g} {r['dt'] * 1e3:6.3g} {r['dofs']:6d} "
+            f"{r['steps']:5d} {r['newton']:6.2f} {r['cuts']:4d} {r['wall']:7.1f} "
+            f"{t.get('compile', math.nan):7.1f} {t.get('residual', math.nan):6.1f} "
+            f"{t.get('jacobian', math.nan):6.1f} {t.get('linear_solve', math.nan):6.1f} "
+            f"{err_max:8.3f} {err_end:8.3f} {math.degrees(r['angle'][-1]):10.3f}"
+        )
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--case", default=str(REPO / "cases" / "one_arm_trapezoid.toml"))
+    parser.add_argument("--strip-case", default=str(REPO / "cases/one_arm_shapes_rectangle.toml"))
+    parser.add_argument("--window", type=float, default=0.01, help="simulated time (s)")
+    parser.add_argument("--sizes", type=float, nargs="+", default=[2e-3, 1e-3, 0.5e-3])
+    parser.add_argument("--steps", type=float, nargs="+", default=[1e-3, 5e-4, 2.5e-4])
+    parser.add_argument("--strip-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3, 0.25e-3])
+    parser.add_argument("--solid-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3])
+    parser.add_argument("--skip-strip", action="store_true")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    common = [f"time.end={args.window}", "output.csv=false", "output.vtx_every=0"]
+    common.append("output.plot=false")
+    rank0_print(f"{comm.size} rank(s); window {args.window * 1e3:g} ms")
+
+    # --- default case: mesh x step grid -----------------------------------------------------
+    rows = []
+    for size in sorted(args.sizes, reverse=True):
+        for dt in sorted(args.steps, reverse=True):
+            over = [*common, f"mesh.size={size}", f"time.step={dt}"]
+            r = run_one(Path(args.case), over, comm) | {"model": "solid", "size": size, "dt": dt}
+            rows.append(r)
+            rank0_print(f"  solid size={size:g} dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps")
+    reference = rows[-1]  # finest mesh, smallest step
+    lines = table(
+        f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the finest run",
+        rows,
+        reference,
+    )
+
+    # --- strip against solid on a uniform-width arm -----------------------------------------
+    if not args.skip_strip:
+        thickness = load_case(Path(args.case)).robot.thickness
+        dt = min(args.steps)
+        base = [*common, f"robot.thickness={thickness}", f"time.step={dt}", "mesh.layers=1"]
+        strip_rows = []
+        for model, sizes in (("solid", args.solid_sizes), ("strip", args.strip_sizes)):
+            for size in sorted(sizes, reverse=True):
+                over = [*base, f"mesh.model={model}", f"mesh.size={size}"]
+                r = run_one(Path(args.strip_case), over, comm)
+                strip_rows.append(r | {"model": model, "size": size, "dt": dt})
+                rank0_print(f"  {model} size={size:g}: {r['wall']:.1f} s")
+        solid_ref = [r for r in strip_rows if r["model"] == "solid"][-1]
+        lines += [""] + table(
+            f"{Path(args.strip_case).name} at {thickness * 1e6:g} um, dt {dt * 1e3:g} ms: "
+            "strip and solid vs the finest solid",
+            strip_rows,
+            solid_ref,
+        )
+        rows += strip_rows
+    rank0_print("\n".join(lines))
+    if args.json is not None and comm.rank == 0:
+        payload = [
+            {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()}
+            for r in rows
+        ]
+        args.json.write_text(json.dumps(payload, indent=1))
+
+
+if __name__ == "__main__":
+    main()
