@@ -186,9 +186,9 @@ def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list,
 def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> ufl.Measure:
     """The boundary measure of ``[contact] surfaces`` (facet groups that may touch the ground).
 
-    ``"all"`` is the whole boundary. The default names (``bottom``, ``clamp``)
-    are skipped where a robot lacks them; any other unknown name, a cell group,
-    or a list that matches no facet group raises.
+    ``"all"`` (the default) is the whole boundary. ``bottom`` and ``clamp`` are
+    skipped where a robot lacks them (free robots have no clamp); any other
+    unknown name, a cell group, or a list that matches no facet group raises.
     """
     names = case.contact.surfaces
     if "all" in names:

@@ -252,14 +252,14 @@ class ContactSpec:
     regularization_velocity: float = quantity(
         1e-3, "m/s", gt=0.0, doc="v_ε of the regularised Coulomb friction"
     )
-    surfaces: tuple[str, ...] = ("bottom", "clamp")
+    surfaces: tuple[str, ...] = ("all",)
     """Facet groups that may touch the ground (``"all"``: the whole boundary).
 
-    The default is the ground-facing face (``bottom`` plus the bonded
-    ``clamp`` patch, whichever exist). The traction is exactly zero off the
-    ground, so a larger set changes nothing but the cost (every listed facet
-    is integrated at every Newton iteration); add ``"top"`` for a robot that
-    flips over onto its top face."""
+    The traction is exactly zero off the ground, so a smaller set changes
+    nothing but the cost as long as it holds every face that reaches the
+    ground: ``["bottom", "clamp"]`` saves ~12 % of the Jacobian assembly on the
+    default case but is wrong there, because the arm flips over past 180° after
+    the field reverses and lands on its ``top`` face."""
 
 
 @dataclass(frozen=True)
