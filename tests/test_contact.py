@@ -162,3 +162,34 @@ def test_law_from_spec_scales_with_membrane():
     assert law.damping == critical_contact_damping(law.stiffness, 2130.0, 1e-4)
     with pytest.raises(ValueError):
         GroundContactLaw(stiffness=1.0, onset=0.0)
+
+
+def test_impact_absorber_stops_whole_columns_below_ground(comm):
+    """Columns whose contact node is below ground lose upward v_z and a_z, all through the
+    thickness (two layers here); columns above ground, downward motion and v_x are kept."""
+    from magfem.mechanics.contact import ImpactAbsorber
+
+    m = mesh.create_box(comm, [[0.0, 0.0, 0.0], [LX, LY, H]], [4, 2, 2], mesh.CellType.hexahedron)
+    V = fem.functionspace(m, ("Lagrange", 2, (3,)))
+    bottom = mesh.locate_entities_boundary(m, 2, lambda X: np.isclose(X[2], 0.0))
+    absorber = ImpactAbsorber(V, bottom, vertical=2, ground_height=0.0)
+    u, v, a = fem.Function(V), fem.Function(V), fem.Function(V)
+    # x < 0.3 LX (3 of the 9 P2 node lines along x) is pushed 1 µm into the ground, the rest
+    # lifted 1 µm
+    u.interpolate(lambda X: np.vstack([0 * X[0], 0 * X[0], np.where(X[0] < 0.3 * LX, -1e-6, 1e-6)]))
+    # rebounding everywhere except a strip moving down; sliding along x
+    v.interpolate(
+        lambda X: np.vstack([0.1 + 0 * X[0], 0 * X[0], np.where(X[1] > 0.8 * LY, -0.2, 0.2)])
+    )
+    a.interpolate(lambda X: np.vstack([0 * X[0], 0 * X[0], 50.0 + 0 * X[0]]))
+    columns = absorber.apply(u, v, a)
+    X = V.tabulate_dof_coordinates()
+    vz, az = v.x.array[2::3], a.x.array[2::3]
+    hit = X[:, 0] < 0.3 * LX
+    up = X[:, 1] <= 0.8 * LY
+    assert np.all(vz[hit & up] == 0.0) and np.all(az[hit & up] == 0.0)
+    assert np.all(vz[hit & ~up] == -0.2)  # still pressing: left to the penalty
+    assert np.all(vz[~hit] != 0.0) and np.all(az[~hit] == 50.0)
+    assert np.all(v.x.array[0::3] == 0.1)
+    # P2 nodes of a 4 x 2 grid: 3 node lines along x below ground, 5 along y
+    assert columns == 3 * 5
