@@ -174,6 +174,12 @@ _COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "field": _cmd_field, "run":
 _DRIVERS = {"sweep": _cmd_sweep, "report": _cmd_report}
 
 
+def _add_overrides(parser: argparse.ArgumentParser, text: str) -> None:
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE", help=text
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     from magfem import __version__
 
@@ -192,14 +198,7 @@ def _parser() -> argparse.ArgumentParser:
     for name, text in helps.items():
         s = sub.add_parser(name, help=text, description=text)
         s.add_argument("case", help="case file (TOML)")
-        s.add_argument(
-            "--set",
-            dest="overrides",
-            action="append",
-            default=[],
-            metavar="KEY=VALUE",
-            help="override a case value, e.g. --set field.sources.0.waveform.frequency=50Hz",
-        )
+        _add_overrides(s, "override a case value, e.g. --set time.end=50ms")
         if name != "check":
             s.add_argument("--out", help="output directory (default output/<case name>)")
         if name == "run":
@@ -216,14 +215,7 @@ def _parser() -> argparse.ArgumentParser:
         help="swept key: NAME=V1,V2,... or NAME=START:STOP:STEP[unit], e.g. "
         "field.sources.0.waveform.frequency=10:200:20Hz (repeat for a grid)",
     )
-    s.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override applied to every point",
-    )
+    _add_overrides(s, "override applied to every point")
     s.add_argument("--jobs", type=int, default=1, help="points run at the same time")
     s.add_argument("--np", type=int, default=1, help="MPI ranks per point (mpirun -n)")
     s.add_argument("--out", help="sweep directory (default output/sweeps/<case stem>)")
