@@ -61,7 +61,7 @@ from mpi4py import MPI
 from magfem.field.analytic import MU0
 from magfem.field.model import SourceField, hessian_from_gradient
 from magfem.field.points import PointEvaluator
-from magfem.field.recovery import Projector, air_indicator
+from magfem.field.recovery import Projector, air_indicator, pack
 from magfem.field.spec import frame
 from magfem.geometry.sources import RectRegion, axisymmetric_builder
 
@@ -114,6 +114,7 @@ class AxisymmetricField(SourceField):
         self.mesh = A.function_space.mesh
         self.ndofs = A.function_space.dofmap.index_map.size_global
         self._eval = PointEvaluator(self.mesh, f"air region of {name} (radius {r_air:g} m)")
+        self._packed = pack([*B, *dB], "B_gradB")
 
     def _local(self, points: np.ndarray) -> tuple[np.ndarray, ...]:
         p = (np.atleast_2d(points).reshape(-1, 3) - self.center) @ self.Q
@@ -124,10 +125,10 @@ class AxisymmetricField(SourceField):
         rz = np.column_stack([r, p[:, 2], np.zeros(len(p))])
         return rz, c, s, r
 
-    def _values(self, points: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _values(self, points: np.ndarray, gradient: bool = True) -> tuple[np.ndarray, ...]:
         rz, c, s, r = self._local(points)
-        vals = self._eval([*self.B, *self.dB], rz)
-        return np.hstack(vals[:2]), np.hstack(vals[2:]), c, s, r
+        (v,) = self._eval([self._packed], rz)
+        return v[:, :2], v[:, 2:], c, s, r
 
     def covers(self, points: np.ndarray) -> np.ndarray:
         # the outer boundary is a polygon inscribed in the circle/sphere of radius r_air
@@ -135,30 +136,31 @@ class AxisymmetricField(SourceField):
         return np.linalg.norm(d, axis=1) < 0.99 * self.r_air
 
     def flux_density(self, points: np.ndarray) -> np.ndarray:
-        b, _, c, s, _ = self._values(points)
-        loc = np.column_stack([b[:, 0] * c, b[:, 0] * s, b[:, 1]])
-        return loc @ self.Q.T
+        return self.field_and_gradient(points, gradient=False)[0]
 
     def gradient(self, points: np.ndarray) -> np.ndarray:
-        b, d, c, s, r = self._values(points)
+        return self.field_and_gradient(points)[1]
+
+    def field_and_gradient(
+        self, points: np.ndarray, *, gradient: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        b, d, c, s, r = self._values(points, gradient)
         n = len(b)
-        er = np.column_stack([c, s, np.zeros(n)])
-        ephi = np.column_stack([-s, c, np.zeros(n)])
-        ez = np.tile([0.0, 0.0, 1.0], (n, 1))
+        B = np.column_stack([b[:, 0] * c, b[:, 0] * s, b[:, 1]]) @ self.Q.T
+        if not gradient:
+            return B, np.zeros((n, 3, 3))
+        z = np.zeros(n)
+        er = np.column_stack([c, s, z])
+        ephi = np.column_stack([-s, c, z])
         tiny = 1e-9 * self.r_air
         br_over_r = np.where(r > tiny, b[:, 0] / np.where(r > tiny, r, 1.0), d[:, 0])
-
-        def outer(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-            return np.einsum("ni,nj->nij", u, v)
-
-        G = (
-            d[:, 0, None, None] * outer(er, er)
-            + br_over_r[:, None, None] * outer(ephi, ephi)
-            + d[:, 1, None, None] * outer(er, ez)
-            + d[:, 2, None, None] * outer(ez, er)
-            + d[:, 3, None, None] * outer(ez, ez)
+        G = d[:, 0, None, None] * (er[:, :, None] * er[:, None, :]) + br_over_r[:, None, None] * (
+            ephi[:, :, None] * ephi[:, None, :]
         )
-        return np.einsum("ia,nab,jb->nij", self.Q, G, self.Q)
+        G[:, :, 2] += d[:, 1, None] * er  # ∂B_r/∂z e_r ⊗ e_z
+        G[:, 2, :] += d[:, 2, None] * er  # ∂B_z/∂r e_z ⊗ e_r
+        G[:, 2, 2] += d[:, 3]
+        return B, self.Q @ G @ self.Q.T
 
     def hessian(self, points: np.ndarray) -> np.ndarray:
         return hessian_from_gradient(self.gradient, points, self.hessian_step)

@@ -84,6 +84,10 @@ class SourceField:
         """∇∇B at ``points`` (N, 3) → (N, 3, 3, 3), T/m²."""
         raise NotImplementedError
 
+    def field_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B (N, 3), ∇B (N, 3, 3)) at ``points`` in one pass (FE fields locate points once)."""
+        return self.flux_density(points), self.gradient(points)
+
     def covers(self, points: np.ndarray) -> np.ndarray:
         """Mask (N,) of ``points`` (N, 3) where the field can be evaluated (its air region)."""
         return np.ones(len(np.atleast_2d(points)), dtype=bool)
@@ -387,8 +391,9 @@ class FEFieldModel(FieldModel):
 
     def _refresh(self, x: np.ndarray) -> None:
         self._f["xn"].x.array[:] = x.ravel()
-        self._bs = np.array([s.flux_density(x) for s, _ in self.sources]).reshape(-1, len(x), 3)
-        self._gs = np.array([s.gradient(x) for s, _ in self.sources]).reshape(-1, len(x), 3, 3)
+        pairs = [s.field_and_gradient(x) for s, _ in self.sources]
+        self._bs = np.array([b for b, _ in pairs]).reshape(-1, len(x), 3)
+        self._gs = np.array([g for _, g in pairs]).reshape(-1, len(x), 3, 3)
 
     def flux_density(self, x: Any) -> Any:
         import ufl

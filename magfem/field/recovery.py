@@ -18,7 +18,26 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Projector", "air_indicator"]
+__all__ = ["Projector", "air_indicator", "pack"]
+
+
+def pack(functions: list[Any], name: str = "packed") -> Any:
+    """One blocked Function holding scalar ``functions`` (same space) as components.
+
+    Point evaluation then locates each point once and evaluates all components
+    in one call (the recovered B, ∇B are evaluated at every robot node per step).
+    """
+    from dolfinx import fem
+
+    V = functions[0].function_space
+    W = fem.functionspace(
+        V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree, (len(functions),))
+    )
+    out = fem.Function(W, name=name)
+    bs = len(functions)
+    for i, f in enumerate(functions):
+        out.x.array[i::bs] = f.x.array  # same mesh and element: identical scalar dof layout
+    return out
 
 
 def air_indicator(mesh: Any, cell_tags: Any, source_tags: list[int], eps: float = 1e-8) -> Any:

@@ -44,7 +44,7 @@ from mpi4py import MPI
 from magfem.field.analytic import MU0
 from magfem.field.model import SourceField, hessian_from_gradient
 from magfem.field.points import PointEvaluator
-from magfem.field.recovery import Projector, air_indicator
+from magfem.field.recovery import Projector, air_indicator, pack
 from magfem.field.spec import BlockMagnetSpec, SolveSpec, frame
 from magfem.geometry.sources import BoxRegion, solid_builder
 
@@ -77,6 +77,7 @@ class SolidField(SourceField):
         self.magnets = list(magnets)
         self.r_air = r_air
         self._center = np.mean([m.center for m in magnets], axis=0)
+        self._packed = pack([*H, *dH], "H_gradH")
         self.hessian_step = hessian_step
         self.name = name
         self.timings = timings
@@ -93,11 +94,14 @@ class SolidField(SourceField):
 
     def flux_density(self, points: np.ndarray) -> np.ndarray:
         p = np.atleast_2d(points).reshape(-1, 3)
-        return MU0 * np.hstack(self._eval(self.H, p))
+        return self.field_and_gradient(p)[0]
 
     def gradient(self, points: np.ndarray) -> np.ndarray:
-        g = np.hstack(self._eval(self.dH, np.atleast_2d(points).reshape(-1, 3)))
-        return MU0 * g.reshape(-1, 3, 3)
+        return self.field_and_gradient(points)[1]
+
+    def field_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        (v,) = self._eval([self._packed], np.atleast_2d(points).reshape(-1, 3))
+        return MU0 * v[:, :3], MU0 * v[:, 3:].reshape(-1, 3, 3)
 
     def hessian(self, points: np.ndarray) -> np.ndarray:
         return hessian_from_gradient(self.gradient, points, self.hessian_step)
