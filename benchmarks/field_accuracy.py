@@ -13,6 +13,8 @@ Usage::
     python benchmarks/field_accuracy.py --solid    # + the 3D block magnet (~3 min)
     python benchmarks/field_accuracy.py --figure docs/field_coil_pair.png --only-figure
                                                    # coil pair PNG + model errors
+    python benchmarks/field_accuracy.py --model-cost --only-figure
+                                                   # FE model refresh per time step
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from magfem.config import from_table
 from magfem.field import analytic as an
 from magfem.field.solvers import solve_source
 from magfem.field.spec import BlockMagnetSpec, CoilPairSpec, CylinderMagnetSpec, SolveSpec
+from magfem.parallel import rank0_print
 
 Z = np.array([0.0, 0.0, 1.0])
 WS = np.array([[-0.01] * 3, [0.01] * 3])
@@ -82,9 +85,12 @@ def main() -> None:
     parser.add_argument("--solid", action="store_true", help="also the 3D block magnet")
     parser.add_argument("--figure", help="write the coil pair PNG (|B| + field lines) here")
     parser.add_argument("--only-figure", action="store_true", help="skip the accuracy tables")
+    parser.add_argument("--model-cost", action="store_true", help="time the FE model's refresh")
     args = parser.parse_args()
     if args.figure:
         figure(args.figure)
+    if args.model_cost:
+        model_cost()
     if args.only_figure:
         return
     for name, spec, ref, s in (pair_case(), magnet_case()):
@@ -141,6 +147,41 @@ def main() -> None:
                 f"| {degree} | {1e3 * h:g} | {1e3 * hw:g} | {field.ndofs} | {field.iterations} "
                 f"| {wall:.1f} | {field.timings['solve']:.1f} | {eB:.1e} | {eG:.1e} |"
             )
+
+
+def model_cost() -> None:
+    """Wall time of FieldModel.update(t, u=u) (FE model) on a 20 x 10 mm membrane mesh."""
+    from dolfinx import fem, mesh
+
+    from magfem.field.model import create_field_model
+    from magfem.field.spec import FieldSpec
+
+    comm = MPI.COMM_WORLD
+    table = {
+        "model": "fe",
+        "sources": [
+            {"kind": "cylinder_magnet", "center": [0, 0, -0.02]},
+            {"kind": "coil_pair", "current": 2.0, "axis": [1, 0, 0]},
+        ],
+    }
+    model = create_field_model(from_table(FieldSpec, table, "field"), comm)
+    domain = mesh.create_box(comm, [[-0.01, -0.005, 0], [0.01, 0.005, 0.0002]], [40, 20, 1])
+    model.bind(domain)
+    u = fem.Function(fem.functionspace(domain, ("Lagrange", 2, (3,))))
+    t = time.perf_counter()
+    for k in range(10):
+        model.update(0.001 * k, u=u)
+    refresh = (time.perf_counter() - t) / 10
+    t = time.perf_counter()
+    for k in range(10):
+        model.update(0.001 * k)
+    amp = (time.perf_counter() - t) / 10
+    nodes = model._f["B"].function_space.dofmap.index_map.size_global
+    rank0_print(
+        f"FE model, 2 sources, {nodes} P2 nodes, {comm.size} rank(s): "
+        f"update(t, u=u) {refresh:.3f} s, update(t) {1e3 * amp:.2f} ms",
+        comm=comm,
+    )
 
 
 def figure(path: str) -> None:
