@@ -1,0 +1,134 @@
+"""Speed of the dynamic solver on the default case (issue 4): assembly and whole runs.
+
+Two parts, both on ``cases/one_arm_trapezoid.toml`` (3D P2 hexahedra, 1 mm,
+one layer, 1647 dofs), CPU time (``time.process_time``, robust against a
+loaded machine) next to wall time:
+
+* ``assembly``: ms per Jacobian and per residual assembly, the residual with
+  dolfinx's ``assemble_residual`` (lifting included) and with the
+  homogeneous-support shortcut of :class:`magfem.mechanics.solver.NewtonSolver`,
+  for ground contact on the whole boundary, on ``bottom`` + ``clamp`` only,
+  and off;
+* ``run``: a run of the case (``--set`` overrides as in ``magfem run``):
+  steps, mean Newton iterations, cuts, maximum and final tip angle (deg),
+  and the wall-time split of :meth:`MembraneSimulation.timings`.
+
+    .venv/bin/python benchmarks/dynamics_speed.py assembly
+    .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01
+    .venv/bin/mpirun -n 2 .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01
+"""
+
+from __future__ import annotations
+
+# isort: off
+import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
+
+# isort: on
+import argparse
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+CASE = Path(__file__).resolve().parents[1] / "cases" / "one_arm_trapezoid.toml"
+
+
+def _timed(fn, n: int) -> tuple[float, float]:
+    """(cpu, wall) ms per call of ``fn`` over ``n`` calls after one warm-up call."""
+    fn()
+    c0, t0 = time.process_time(), time.perf_counter()
+    for _ in range(n):
+        fn()
+    return 1e3 * (time.process_time() - c0) / n, 1e3 * (time.perf_counter() - t0) / n
+
+
+def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
+    """(cpu, wall) ms per call of the step's Jacobian and residual for case overrides ``sets``."""
+    from dolfinx.fem import petsc as fem_petsc
+
+    from magfem.case import load_case
+    from magfem.mechanics import MembraneSimulation
+
+    comm = MPI.COMM_WORLD
+    sim = MembraneSimulation(load_case(CASE, sets), comm)
+    problem, snes, bcs = sim.solver.problem, sim.solver.snes, sim.problem.bcs
+    rng = np.random.default_rng(comm.rank)
+    sim.u.x.array[:] = 1e-6 * rng.random(sim.u.x.array.size)
+    for bc in bcs:
+        bc.set(sim.u.x.array, alpha=0.0)
+    fem_petsc.assign(sim.u, problem.x)
+    x, b, A = problem.x, problem.b, problem.A
+
+    def jac() -> None:
+        snes.computeJacobian(x, A, problem.P_mat)
+
+    def res_ours() -> None:
+        snes.computeFunction(x, b)
+
+    def res_dolfinx() -> None:
+        fem_petsc.assemble_residual(snes, x, b, problem.u, problem.F, problem.J, bcs)
+
+    return {
+        "jacobian": _timed(jac, n),
+        "residual (no lifting)": _timed(res_ours, n),
+        "residual (dolfinx, lifting)": _timed(res_dolfinx, n),
+    }
+
+
+def assembly(n: int) -> None:
+    for label, sets in (
+        ("contact on the whole boundary", []),
+        ("contact on bottom + clamp", ['contact.surfaces=["bottom", "clamp"]']),
+        ("no contact", ["contact.ground=false"]),
+    ):
+        rows = _assembly_times(sets, n)
+        if MPI.COMM_WORLD.rank == 0:
+            print(f"{label}:")
+            for name, (cpu, wall) in rows.items():
+                print(f"  {name:28s} cpu {cpu:7.1f} ms  wall {wall:7.1f} ms per call")
+
+
+def run(sets: list[str]) -> None:
+    from magfem.case import load_case
+    from magfem.mechanics import MembraneSimulation
+
+    comm = MPI.COMM_WORLD
+    c0, t0 = time.process_time(), time.perf_counter()
+    sim = MembraneSimulation(load_case(CASE, sets), comm)
+    result = sim.run(None, progress=False)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    s, st = result.summary, sim.solver.timings
+    if comm.rank == 0:
+        print(f"case {CASE.name} {' '.join(sets)} ranks {comm.size}")
+        print(
+            f"steps {s['steps']:.0f}, mean Newton {s['mean_newton_iterations']:.2f}, "
+            f"cuts {s['cuts']:.0f}, Jacobians {st.jacobian_calls}, residuals {st.residual_calls}"
+        )
+        print(
+            f"max angle {math.degrees(s['max_angle_arm']):.3f} deg, "
+            f"final angle {math.degrees(s['final_angle_arm']):.3f} deg, "
+            f"max strain {s['max_strain']:.4f}"
+        )
+        split = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items())
+        print(f"wall split (s, rank 0): {split}")
+        print(f"rank 0: cpu {cpu:.1f} s, wall {wall:.1f} s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="part", required=True)
+    a = sub.add_parser("assembly")
+    a.add_argument("-n", type=int, default=20, help="calls per timing")
+    r = sub.add_parser("run")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    args = parser.parse_args()
+    if args.part == "assembly":
+        assembly(args.n)
+    else:
+        run(args.set)
+
+
+if __name__ == "__main__":
+    main()
