@@ -53,6 +53,12 @@ def test_sine_and_trigger():
     assert w.value(0.0125) == 1.0 and w.value(0.0099) == 0.0
 
 
+def test_delay_is_an_alias_of_start():
+    assert wave(kind="dc", delay="3 ms").breakpoints(0.0, 1.0)[0] == pytest.approx(0.003)
+    with pytest.raises(CaseError, match="not both"):
+        from_table(WaveformSpec, {"kind": "dc", "delay": 1.0, "start": 1.0}, "waveform")
+
+
 def test_table_interpolation_and_jump():
     w = wave(kind="table", times=[0.0, 0.01, 0.01, 0.02], values=[0.0, 1.0, -1.0, 0.0])
     assert w.value(0.005) == pytest.approx(0.5)

@@ -152,7 +152,7 @@ class WaveformSpec:
       nominal current, which is then held (see
       :class:`magfem.field.waveforms.SquareRL`).
 
-    All kinds are 0 before ``start`` and, where ``duration`` is given, from
+    All kinds are 0 before ``start`` (alias ``delay``) and, where ``duration`` is given, from
     ``start + duration`` on; ``amplitude`` scales the result (|amplitude| <= 1).
     """
 
@@ -180,6 +180,10 @@ class WaveformSpec:
                 kind,
                 "unknown waveform; must be one of " + ", ".join(WAVEFORM_KINDS),
             )
+        if "delay" in table:  # alias of start
+            if "start" in table:
+                raise CaseError(f"{where}.delay", table["delay"], "give start or delay, not both")
+            table = {("start" if k == "delay" else k): v for k, v in table.items()}
         check_keys(table, _WAVEFORM_COMMON + _WAVEFORM_KEYS[kind], where)
         return build_fields(cls, table, where)
 
