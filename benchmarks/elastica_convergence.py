@@ -1,0 +1,191 @@
+"""Static elastica and first-frequency errors against mesh refinement (tables for the docs).
+
+Part 1, static cantilever vs the hard-magnetic elastica (the set-up of
+tests/test_verification_elastica.py): 80 µm arm, 7.5 mm with a 1 mm bonded
+root strip, μ = 115 kPa, M = 123 kA/m through the thickness, field along −x
+ramped quasi-statically to 0.4 mT and sampled at 0.1, 0.2, 0.3, 0.4 mT.
+Models: plane-strain strip (2 mm wide arm, reference modulus E/(1 − ν²)),
+plane-stress strip (3μ), 3D solid of a narrow arm (0.25 mm wide ≈ 3 h:
+beam modulus E; a 2 mm wide 3D arm sits between beam and plate, see
+docs/verification.md).
+
+Part 2, first bending frequency after a modal push (the set-up of
+tests/test_verification_frequency.py), ρ∞ = 1, Δt = T/80.
+
+    .venv/bin/python benchmarks/elastica_convergence.py            # everything (~10 min)
+    .venv/bin/python benchmarks/elastica_convergence.py --quick    # strips only
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+import magfem  # noqa: F401
+from magfem import material
+from magfem.case import parse_case
+from magfem.mechanics import MembraneSimulation
+from magfem.mechanics import reference as ref
+from magfem.mechanics.observers import TIP_OFFSET
+from magfem.parallel import rank0_print
+
+H, L, CLAMP, MU, RHO, M = 80e-6, 7.5e-3, 1e-3, 115e3, 2130.0, 123e3
+B_MAX = 0.4e-3
+FRACTIONS = (0.25, 0.5, 0.75, 1.0)
+FREE = L - CLAMP
+
+
+def _case(model: str, size: float, width: float, plane: str, **tables: Any) -> Any:
+    data: dict[str, Any] = {
+        "name": "verification",
+        "robot": {
+            "shape": "rectangle",
+            "thickness": H,
+            "length": L,
+            "width": width,
+            "clamp_length": CLAMP,
+        },
+        "mesh": {"size": size, "model": model},
+        "material": {"shear_modulus": MU, "density": RHO, "remanence": M, "plane": plane},
+        "environment": {"gravity": [0, 0, 0]},
+        "output": {"csv": False, "vtx_every": 0, "plot": False},
+    }
+    data.update(tables)
+    return parse_case(data)
+
+
+def chord(load: float) -> float:
+    """Elastica tip observable (rad): chord over the last TIP_OFFSET·L."""
+    sol = ref.hard_magnetic_elastica(load, field_angle=math.pi)
+    s1 = 1.0 - 1e-9 * L / FREE
+    s0 = s1 - TIP_OFFSET * L / FREE
+    x, y = np.interp([s0, s1], sol.s, sol.x), np.interp([s0, s1], sol.s, sol.y)
+    return math.atan2(y[1] - y[0], x[1] - x[0])
+
+
+def static_row(comm: Any, model: str, size: float, width: float, plane: str, modulus: float):
+    source = {
+        "kind": "uniform",
+        "flux_density": B_MAX,
+        "direction": [-1, 0, 0],
+        "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
+    }
+    case = _case(
+        model,
+        size,
+        width,
+        plane,
+        field={"sources": [source]},
+        time={"scheme": "quasi_static", "end": 1.0, "step": 0.25},
+    )
+    t0 = time.perf_counter()
+    sim = MembraneSimulation(case, comm)
+    res = sim.run(None, progress=False)
+    wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    t, angle = res.history["time"], res.history["angle_arm"]
+    rows = [int(np.argmin(np.abs(t - f))) for f in FRACTIONS]  # adaptive steps: nearest
+    fe = angle[rows]
+    exact = np.array([chord(ref.elastica_load(M, f * B_MAX, FREE, H, modulus)) for f in t[rows]])
+    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
+    return np.degrees(fe), np.degrees(fe - exact), np.degrees(exact), dofs, wall
+
+
+def frequency_row(comm: Any, model: str, size: float, width: float, plane: str, f_ref: float):
+    period = 1.0 / f_ref
+    case = _case(
+        model,
+        size,
+        width,
+        plane,
+        time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
+        material={"shear_modulus": MU, "density": RHO, "remanence": 0.0, "plane": plane},
+    )
+    t0 = time.perf_counter()
+    sim = MembraneSimulation(case, comm)
+    b = ref.cantilever_eigenvalue(1) / FREE
+    bl = b * FREE
+    sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
+    vertical = sim.gdim - 1
+
+    def push(X: Any) -> Any:
+        s = np.maximum(X[0] - CLAMP, 0.0)
+        phi = 0.5 * (np.cosh(b * s) - np.cos(b * s) - sig * (np.sinh(b * s) - np.sin(b * s)))
+        dphi = 0.5 * b * (np.sinh(b * s) + np.sin(b * s) - sig * (np.cosh(b * s) - np.cos(b * s)))
+        v = np.zeros((sim.gdim, X.shape[1]))
+        v[0] = -(X[vertical] - H / 2) * 1e-3 * dphi
+        v[vertical] = 1e-3 * phi
+        return v
+
+    sim.integrator.v0.interpolate(push)
+    res = sim.run(None, progress=False)
+    wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    t, a = res.history["time"], res.history["angle_arm"]
+    down = np.flatnonzero((a[:-1] > 0) & (a[1:] <= 0))
+    cross = t[down] - a[down] * (t[down + 1] - t[down]) / (a[down + 1] - a[down])
+    f = 1.0 / np.mean(np.diff(cross))
+    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
+    return f, dofs, wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="strips only")
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    E, nu = ref.young_modulus(MU, 100 * MU), ref.poisson_ratio(MU, 100 * MU)
+    plate = material.plane_strain_modulus(MU, 100 * MU)
+    configs: list[tuple[str, str, float, str, float, list[float]]] = [
+        ("strip, plane strain", "strip", 2e-3, "strain", plate, [2e-3, 1e-3, 0.5e-3, 0.25e-3]),
+        ("strip, plane stress", "strip", 2e-3, "stress", 3 * MU, [1e-3, 0.5e-3, 0.25e-3]),
+    ]
+    if not args.quick:
+        configs.append(("solid, 0.25 mm wide", "solid", 0.25e-3, "strain", E, [0.25e-3, 0.125e-3]))
+        configs.append(("solid, 2 mm wide (vs plate)", "solid", 2e-3, "strain", plate, [1e-3]))
+    lines = [
+        "Static tip angle vs the hard-magnetic elastica at B = 0.1, 0.2, 0.3, 0.4 mT",
+        f"{'model':28} {'size mm':>7} {'dofs':>6} {'wall s':>6}  FE angle° (error°) per load",
+    ]
+    for title, model, width, plane, modulus, sizes in configs:
+        for size in sizes:
+            fe, err, exact, dofs, wall = static_row(comm, model, size, width, plane, modulus)
+            cells = "  ".join(f"{a:7.3f} ({e:+.3f})" for a, e in zip(fe, err, strict=True))
+            lines.append(f"{title:28} {size * 1e3:7.3g} {dofs:6d} {wall:6.1f}  {cells}")
+            rank0_print(lines[-1])
+        lines.append(
+            f"{'':28} {'elastica':>7} {'':6} {'':6}  " + "  ".join(f"{a:7.3f}" for a in exact)
+        )
+    f_plate = ref.cantilever_frequency(E / (1 - nu**2), RHO, H, FREE)
+    f_beam = ref.cantilever_frequency(E, RHO, H, FREE)
+    f_stress = ref.cantilever_frequency(3 * MU, RHO, H, FREE)
+    lines += [
+        "",
+        f"First bending frequency: Euler-Bernoulli plate {f_plate:.4f} Hz, beam (E) "
+        f"{f_beam:.4f} Hz, beam (3 mu) {f_stress:.4f} Hz",
+        f"{'model':28} {'size mm':>7} {'dofs':>6} {'wall s':>6} {'f FE Hz':>8} {'reference':>9} "
+        f"{'error':>8}",
+    ]
+    fconfigs: list[tuple[str, str, float, str, float, list[float]]] = [
+        ("strip, plane strain", "strip", 2e-3, "strain", f_plate, [1e-3, 0.5e-3]),
+        ("strip, plane stress", "strip", 2e-3, "stress", f_stress, [1e-3, 0.5e-3]),
+    ]
+    if not args.quick:
+        fconfigs.append(("solid, 0.25 mm wide", "solid", 0.25e-3, "strain", f_beam, [0.25e-3]))
+        fconfigs.append(("solid, 2 mm wide", "solid", 2e-3, "strain", f_plate, [1e-3, 0.5e-3]))
+    for title, model, width, plane, f_ref, sizes in fconfigs:
+        for size in sizes:
+            f, dofs, wall = frequency_row(comm, model, size, width, plane, f_ref)
+            lines.append(
+                f"{title:28} {size * 1e3:7.3g} {dofs:6d} {wall:6.1f} {f:8.4f} {f_ref:9.4f} "
+                f"{f / f_ref - 1:+8.2%}"
+            )
+            rank0_print(lines[-1])
+    rank0_print("\n" + "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
