@@ -35,17 +35,22 @@ from mpi4py import MPI
 import magfem  # noqa: F401  (MPI before dolfinx)
 from magfem.case import load_case
 from magfem.mechanics import MembraneSimulation
+from magfem.mechanics.simulation import SimulationError
 from magfem.parallel import rank0_print
 
 REPO = Path(__file__).resolve().parents[1]
 
 
-def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, Any]:
-    """Run a case with overrides; returns history arrays, timings and step statistics."""
+def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, Any] | None:
+    """Run a case with overrides; history arrays, timings and step statistics (None: failed)."""
     case = load_case(case_path, overrides)
     t0 = time.perf_counter()
     sim = MembraneSimulation(case, comm)
-    result = sim.run(None, progress=False)
+    try:
+        result = sim.run(None, progress=False)
+    except SimulationError as err:
+        rank0_print(f"  FAILED ({time.perf_counter() - t0:.0f} s): {err}")
+        return None
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     angle_key = next(k for k in result.history if k.startswith("angle_"))
     dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
@@ -107,14 +112,18 @@ def main() -> None:
     rank0_print(f"{comm.size} rank(s); window {args.window * 1e3:g} ms")
 
     # --- default case: mesh x step grid -----------------------------------------------------
-    rows = []
+    rows: list[dict[str, Any]] = []
+    failed: list[str] = []
     for size in sorted(args.sizes, reverse=True):
         for dt in sorted(args.steps, reverse=True):
             over = [*common, f"mesh.size={size}", f"time.step={dt}"]
-            r = run_one(Path(args.case), over, comm) | {"model": "solid", "size": size, "dt": dt}
-            rows.append(r)
+            r = run_one(Path(args.case), over, comm)
+            if r is None:
+                failed.append(f"solid size {size * 1e3:g} mm, dt {dt * 1e3:g} ms")
+                continue
+            rows.append(r | {"model": "solid", "size": size, "dt": dt})
             rank0_print(f"  solid size={size:g} dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps")
-    reference = rows[-1]  # finest mesh, smallest step
+    reference = rows[-1]  # finest mesh, smallest step that completed
     lines = table(
         f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the finest run",
         rows,
@@ -131,16 +140,23 @@ def main() -> None:
             for size in sorted(sizes, reverse=True):
                 over = [*base, f"mesh.model={model}", f"mesh.size={size}"]
                 r = run_one(Path(args.strip_case), over, comm)
+                if r is None:
+                    failed.append(f"{model} size {size * 1e3:g} mm (uniform-width arm)")
+                    continue
                 strip_rows.append(r | {"model": model, "size": size, "dt": dt})
                 rank0_print(f"  {model} size={size:g}: {r['wall']:.1f} s")
         solid_ref = [r for r in strip_rows if r["model"] == "solid"][-1]
-        lines += [""] + table(
+        title = (
             f"{Path(args.strip_case).name} at {thickness * 1e6:g} um, dt {dt * 1e3:g} ms: "
-            "strip and solid vs the finest solid",
-            strip_rows,
-            solid_ref,
+            "strip and solid vs the finest solid"
         )
+        lines += ["", *table(title, strip_rows, solid_ref)]
         rows += strip_rows
+    lines += [
+        f"reference: {reference['model']} {reference['size'] * 1e3:g} mm, dt "
+        f"{reference['dt'] * 1e3:g} ms"
+    ]
+    lines += [f"FAILED (SimulationError): {f}" for f in failed]
     rank0_print("\n".join(lines))
     if args.json is not None and comm.rank == 0:
         payload = [
