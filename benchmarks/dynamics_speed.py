@@ -14,7 +14,8 @@ loaded machine) next to wall time:
   and the wall-time split of :meth:`MembraneSimulation.timings`.
 
     .venv/bin/python benchmarks/dynamics_speed.py assembly
-    .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01
+    .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01 --save /tmp/a.npy
+    .venv/bin/python benchmarks/dynamics_speed.py compare /tmp/ref.npy /tmp/a.npy
     .venv/bin/mpirun -n 2 .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01
 """
 
@@ -70,11 +71,33 @@ def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
     def res_dolfinx() -> None:
         fem_petsc.assemble_residual(snes, x, b, problem.u, problem.F, problem.J, bcs)
 
-    return {
+    rows = {
         "jacobian": _timed(jac, n),
         "residual (no lifting)": _timed(res_ours, n),
         "residual (dolfinx, lifting)": _timed(res_dolfinx, n),
     }
+    from petsc4py import PETSc
+
+    jac()
+    rhs, sol = A.createVecLeft(), A.createVecRight()
+    rhs.set(1.0)
+    for factor in ("mumps", "petsc", "superlu_dist"):
+        if comm.size > 1 and factor == "petsc":
+            continue
+        ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]
+        ksp.setOperators(A)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType(factor)
+
+        def lu(ksp: PETSc.KSP = ksp) -> None:
+            A.assemble()  # new matrix state: numeric refactorisation, as in Newton
+            ksp.setOperators(A)
+            ksp.solve(rhs, sol)
+
+        rows[f"LU {factor} (factor + solve)"] = _timed(lu, n)
+        ksp.destroy()
+    return rows
 
 
 def assembly(n: int) -> None:
@@ -90,7 +113,7 @@ def assembly(n: int) -> None:
                 print(f"  {name:28s} cpu {cpu:7.1f} ms  wall {wall:7.1f} ms per call")
 
 
-def run(sets: list[str]) -> None:
+def run(sets: list[str], save: str | None = None) -> None:
     from magfem.case import load_case
     from magfem.mechanics import MembraneSimulation
 
@@ -114,6 +137,23 @@ def run(sets: list[str]) -> None:
         split = ", ".join(f"{k} {v:.2f}" for k, v in result.timings.items())
         print(f"wall split (s, rank 0): {split}")
         print(f"rank 0: cpu {cpu:.1f} s, wall {wall:.1f} s")
+        if save:
+            h = result.history
+            np.save(save, np.column_stack([h["time"], h["angle_arm"]]))
+
+
+def compare(reference: str, others: list[str]) -> None:
+    """Largest and mean |angle − reference| (deg) of saved histories, on their own times."""
+    ref = np.load(reference)
+    for path in others:
+        a = np.load(path)
+        end = min(a[-1, 0], ref[-1, 0])
+        a = a[a[:, 0] <= end + 1e-12]
+        err = np.degrees(np.abs(a[:, 1] - np.interp(a[:, 0], ref[:, 0], ref[:, 1])))
+        print(
+            f"{path}: max |Δangle| {err.max():.3f} deg at {1e3 * a[err.argmax(), 0]:.2f} ms, "
+            f"mean {err.mean():.3f} deg, up to {1e3 * end:.1f} ms"
+        )
 
 
 def main() -> None:
@@ -123,11 +163,17 @@ def main() -> None:
     a.add_argument("-n", type=int, default=20, help="calls per timing")
     r = sub.add_parser("run")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    r.add_argument("--save", help="write (time s, angle rad) of the run to this .npy")
+    c = sub.add_parser("compare")
+    c.add_argument("reference", help=".npy saved by run --save")
+    c.add_argument("others", nargs="+")
     args = parser.parse_args()
     if args.part == "assembly":
         assembly(args.n)
+    elif args.part == "run":
+        run(args.set, args.save)
     else:
-        run(args.set)
+        compare(args.reference, args.others)
 
 
 if __name__ == "__main__":
