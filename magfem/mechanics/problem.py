@@ -45,6 +45,7 @@ from magfem.mechanics.integrator import TimeIntegrator
 if TYPE_CHECKING:
     from magfem.case import Case
     from magfem.field.model import FieldModel
+    from magfem.mechanics.self_contact import SelfContact
 
 __all__ = [
     "MembraneProblem",
@@ -95,6 +96,8 @@ class MembraneProblem:
         kinematics: ``solid``, ``plane_strain`` or ``plane_stress``.
         quadrature_degree: degree used on every measure.
         field: the bound field model.
+        self_contact: arm–arm contact (``[contact] self_contact``) or None; its
+            data are refreshed by the time loop (see :mod:`.self_contact`).
     """
 
     robot: RobotMesh
@@ -110,6 +113,7 @@ class MembraneProblem:
     quadrature_degree: int
     field: FieldModel
     free_body: bool
+    self_contact: SelfContact | None = None
 
 
 def _kinematics(case: Case) -> material.Kinematics:
@@ -293,12 +297,22 @@ def build_membrane_problem(
 
     ds_contact = _contact_measure(case, robot, ds)
 
+    self_contact = None
+    if case.contact.self_contact:
+        from magfem.mechanics.self_contact import create_self_contact
+
+        self_contact = create_self_contact(
+            case.contact, robot, u, integ, shear_modulus=mat.shear_modulus, quadrature_degree=q
+        )
+
     def residual(u_: Any, v_: Any, a_: Any, t_: Any) -> ufl.Form:
         form = ufl.replace(internal, {placeholder: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
         if contact is not None:
             form = form - contact.work(X + u_, v_, w, ds_contact)
+        if self_contact is not None:
+            form = form - self_contact.work(X + u_, w)
         return form
 
     F_step = integ.discretise(residual)
@@ -313,6 +327,8 @@ def build_membrane_problem(
         "magnetic": material.magnetic_energy(Fu, M, Bu) * dx,
         "gravity": -rho * ufl.dot(g, u) * dx,
     }
+    if self_contact is not None:
+        energy_forms["self_contact"] = self_contact.energy(X + u)
     contact_forms = contact.force_forms(X + u, v1, ds_contact) if contact is not None else []
     return MembraneProblem(
         robot=robot,
@@ -328,4 +344,5 @@ def build_membrane_problem(
         quadrature_degree=q,
         field=field,
         free_body=free_body,
+        self_contact=self_contact,
     )

@@ -144,6 +144,7 @@ class MembraneSimulation:
             name="step",
             homogeneous_bcs=True,
         )
+        self.self_contact = self.problem.self_contact
         t1 = _time.perf_counter()
         self.energy_forms = {
             k: fem.form(f, jit_options={"cffi_extra_compile_args": ["-O2"]})
@@ -193,6 +194,8 @@ class MembraneSimulation:
     def observe(self, t: float) -> dict[str, float]:
         """Observables at the current state u_n (collective). Angles in rad, energies in J."""
         row: dict[str, float] = {"time": t}
+        if self.self_contact is not None:  # first: refreshes the contact data at u_n
+            row |= self.self_contact.observe(t, self.u, self.width)
         if self._angle_eval is not None and self._angle_points is not None:
             disp = self._angle_eval(self.u)
             x = self._angle_points[:, : self.gdim] + disp[:, : self.gdim]
@@ -229,6 +232,8 @@ class MembraneSimulation:
         cols += [f"energy_{n}" for n in self.energy_forms] + ["energy_total"]
         if self.contact_forms:
             cols += ["contact_force", "friction_force"]
+        if self.self_contact is not None:
+            cols += self.self_contact.columns()
         return [*cols, "Bx", "By", "Bz"]
 
     # --- stepping ---------------------------------------------------------------------------
@@ -241,6 +246,8 @@ class MembraneSimulation:
             return None
         self.field.update(self.case.time.start, side="right", u=self.u)
         integ.t.value = self.case.time.start  # type: ignore[assignment]
+        if self.self_contact is not None:
+            self.self_contact.refresh_stage()
         V = self.u.function_space
         a = fem.Function(V)
         form = self.problem.continuous_residual(integ.u0, integ.v0, a, integ.t)
@@ -271,11 +278,15 @@ class MembraneSimulation:
         t_stage = integ.begin(dt)
         side = "right" if integ.dynamic else "left"
         self.field.update(t_stage, side=side, u=integ.u0)
+        if self.self_contact is not None:
+            self.self_contact.refresh_stage()
         report = self.solver.solve()
         if not report.converged and report.iterations <= 1:
             # the predictor (u_n + Δt v_n) can invert thin elements after a sudden load:
             # retry once from u_n before the step is cut
             integ.restore()
+            if self.self_contact is not None:
+                self.self_contact.refresh_stage()
             retry = self.solver.solve()
             report = NewtonReport(
                 retry.converged,
@@ -378,6 +389,8 @@ class MembraneSimulation:
                     "cuts": cuts,
                 }
                 rows.append(row)
+                for msg in self.self_contact.pop_events() if self.self_contact else []:
+                    self._say(msg, bar)
                 if csv_out is not None:
                     csv_out.write(row)
                 if vtx is not None and self.steps % out.vtx_every == 0:
@@ -448,6 +461,8 @@ class MembraneSimulation:
         if self.frequency:
             period = 1.0 / self.frequency
             out["power_density"] = self.frequency * out["max_energy_density"]
+        if self.self_contact is not None:
+            out |= self.self_contact.summary()
         for name in self.arms:
             angle = history[f"angle_{name}"]
             out[f"max_angle_{name}"] = float(np.max(np.abs(angle)))

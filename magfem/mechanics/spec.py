@@ -260,6 +260,19 @@ class ContactSpec:
     ground: ``["bottom", "clamp"]`` saves ~12 % of the Jacobian assembly on the
     default case but is wrong there, because the arm flips over past 180° after
     the field reverses and lands on its ``top`` face."""
+    self_contact: bool = False
+    """Contact between cell groups of the robot (arm–arm), :mod:`magfem.mechanics.self_contact`."""
+    self_contact_groups: tuple[str, ...] = ()
+    """Cell groups that may touch each other (default: the robot's arms/petals)."""
+    self_contact_penalty: float = quantity(
+        10.0, "", gt=0.0, doc="κ_s: self-contact stiffness k_c = κ_s μ / thickness"
+    )
+    self_contact_onset: float = quantity(
+        0.05, "", gt=0.0, doc="width of the C¹ onset of the self-contact ramp, in thicknesses"
+    )
+    self_contact_exclusion: float = quantity(
+        2.0, "", ge=0.0, doc="points closer than this (in thicknesses) at rest never touch"
+    )
 
 
 @dataclass(frozen=True)

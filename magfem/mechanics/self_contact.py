@@ -1,0 +1,585 @@
+r"""Contact between surfaces of one body (arm–arm, petal–petal): two-pass penalty.
+
+Which surfaces.
+    The exterior facets of a set of cell groups (``[contact]
+    self_contact_groups``, default: the robot's arms). Every group is a
+    *slave* towards every other listed group (its *masters*): the contact
+    is two-pass and symmetric, each surface being pushed out of the other.
+    Points of two groups that lie closer than ``self_contact_exclusion``
+    thicknesses apart in the reference configuration never touch (groups
+    that meet at the hub), and a surface never contacts itself.
+
+Gap and traction.
+    For a slave point x (current position) with master point x̄ and the
+    master's outward unit normal n̄ there, the normal gap is
+    g = (x − x̄)·n̄ (m; negative when the point is inside the master) and the
+    slave carries the traction per *reference* area
+
+    .. math::
+
+        \mathbf t = k_c\, r(-g)\,\bar{\mathbf n},\qquad k_c = \kappa_s\,\mu/h ,
+
+    with r the C¹ ramp of the ground contact
+    (:func:`magfem.mechanics.contact.penalty_ramp`), exactly zero for a
+    positive gap, and onset δ0 = ``self_contact_onset`` h. A contact carrying
+    a pressure p penetrates by δ = r⁻¹(p/k_c)
+    (:func:`magfem.mechanics.reference.penalty_penetration`): p h/(κ_s μ) +
+    δ0/2 on the linear branch. This is the interpenetration tolerance.
+    Because each body receives the traction of its own pass only, the
+    pressure on either side of a matched contact is k_c r(δ) (the passes do
+    not add up); for two flat faces pressed together the two-pass traction is
+    the gradient of the potential ½ Σ_passes ∫ k_c R(−g) dA,
+    R(δ) = ∫₀^δ r, which is reported as the energy ``energy_self_contact``
+    (Wriggers, *Computational Contact Mechanics*, 2nd ed., Springer 2006,
+    §4.1 and §9.2 for two-pass node-to-surface penalty contact).
+
+Search (closest point, nearest-node form).
+    The contact data live at the vertices of the contact surfaces (a P1
+    vector space): for every slave vertex, the nearest vertex x_m of each
+    master group is found with a k-d tree over the *current* positions
+    (scipy ``cKDTree``), its area-weighted outward normal
+    n_m ∝ ∫ J F⁻ᵀ N φ_m dA (assembled, current configuration) is taken, and
+    (x̄, n̄) = (x_m, n_m). The gap to the master's tangent plane at x_m
+    equals the gap to the surface for a flat master and is off by
+    O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
+    Candidates must face each other (n_s·n_m < 0), lie within one facet
+    size laterally (a point beyond the master's edge does not touch it) and
+    less than one thickness inside (a point that went through is not
+    pulled back the wrong way). Slave quadrature points interpolate (x̄, n̄)
+    linearly between the vertices, exact for a flat master.
+
+When the data are refreshed.
+    At the start of every step (at the integrator's stage displacement,
+    where the residual is enforced) and before every observation; within a
+    step (x̄, n̄) is frozen, so each pass sees the master where it was at the
+    start of the step and its Jacobian holds the slave's own penalty
+    stiffness only. The data are Functions updated in place; the forms are
+    compiled once.
+
+    Limit (measured, ``tests/test_self_contact.py``): this staggered coupling
+    is stable while the contact is mass-dominated within a step,
+    k_c β Δt² ≲ ρ H (H the thickness of the bodies): bouncing blocks with
+    k_c β Δt²/(ρH) = 3e-3 conserve energy to 8e-4, and blocks resting on each
+    other under a body force stay stable (slowly settling) at 0.34; at 340
+    (Δt = 0.5 ms) the rocking of the upper block grows until Newton fails.
+    Refreshing at every Newton iteration (tried) made the first impact step
+    diverge: both passes resolve the whole gap at once. A coupled Jacobian
+    (master rows) is the way beyond this limit.
+
+Parallel.
+    Each rank owns the vertices it owns; their positions, normals, groups
+    and reference positions are gathered on every rank (``allgather``) and
+    every rank searches for its own (owned and ghost) vertices. Memory and
+    time of the gather grow with the number of contact vertices of the
+    whole body (about 10⁴ for the 0.5 mm bow tie, a few hundred kB): fine for
+    the membranes here, a bounding-box-filtered exchange is the next step
+    beyond ~10⁶ surface vertices.
+
+Observable (:meth:`SelfContact.observe`): the contact force (N; N/m × width
+for strips) per pair of groups, the largest penetration and the pressure
+weighted centroid of the touching points, plus touch / release events.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem, la
+from dolfinx import mesh as dmesh
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+from magfem.config import CaseError
+from magfem.geometry.robot_mesh import RobotMesh, locate
+from magfem.mechanics.contact import penalty_ramp
+
+if TYPE_CHECKING:
+    from magfem.mechanics.integrator import TimeIntegrator
+    from magfem.mechanics.spec import ContactSpec
+
+__all__ = [
+    "SelfContact",
+    "SelfContactLaw",
+    "create_self_contact",
+    "penalty_energy",
+]
+
+TOUCH = 1e-6
+"""A pair touches when its deepest penetration exceeds TOUCH × δ0 (round-off is not a touch)."""
+
+CANDIDATES = 8
+"""Nearest master vertices examined per slave vertex and master group."""
+
+ADJACENT = 8
+"""Most contact facets kept around one vertex (4 on a structured quadrilateral surface)."""
+
+FACING = -0.5
+"""A master facet counts only if its normal is within 60° of opposing the slave's normal."""
+
+
+@dataclass(frozen=True)
+class SelfContactLaw:
+    """Constants of the self-contact penalty, SI units.
+
+    Attributes:
+        stiffness: k_c = κ_s μ / h (Pa/m).
+        onset: δ0 > 0, width of the C¹ onset of the ramp (m).
+        exclusion: reference distance (m) below which two points never touch.
+        band: a slave point deeper than this inside the master (m) is ignored.
+    """
+
+    stiffness: float
+    onset: float
+    exclusion: float
+    band: float
+
+    def __post_init__(self) -> None:
+        # programming errors only: user input is validated by ContactSpec
+        for name in ("stiffness", "onset", "band"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"SelfContactLaw.{name} must be finite and > 0, got {value!r}")
+        if not (math.isfinite(self.exclusion) and self.exclusion >= 0):
+            raise ValueError(f"SelfContactLaw.exclusion must be >= 0, got {self.exclusion!r}")
+
+
+def penalty_energy(delta: Any, onset: Any) -> Any:
+    """R(δ) = ∫₀^δ r (m²), the potential of the C¹ ramp r of :func:`penalty_ramp` (UFL).
+
+    0 for δ <= 0, δ³/(6δ0) on the onset, δ²/2 − δ0 δ/2 + δ0²/6 beyond.
+    """
+    return ufl.conditional(
+        ufl.le(delta, 0.0),
+        0.0,
+        ufl.conditional(
+            ufl.lt(delta, onset),
+            delta**3 / (6.0 * onset),
+            delta**2 / 2.0 - onset * delta / 2.0 + onset**2 / 6.0,
+        ),
+    )
+
+
+class SelfContact:
+    """Two-pass penalty contact between the surfaces of cell groups of one mesh (collective).
+
+    Args:
+        robot: the robot mesh with its named cell groups.
+        u: the unknown displacement (m), Lagrange vector space V.
+        integrator: the time integrator (its stage weights place the search).
+        groups: names of the cell groups that may touch each other (>= 2).
+        law: penalty constants.
+        quadrature_degree: degree of the contact surface measure.
+        key: case key named in errors.
+
+    Attributes:
+        measure: ``ds`` over the contact surfaces (explicit quadrature degree).
+        xbar, nbar: master point (m) and master unit normal per slave vertex
+            (P1 vector Functions; nbar = 0 where no master is near).
+        events: touch/release messages not yet handed out (:meth:`pop_events`).
+    """
+
+    def __init__(
+        self,
+        robot: RobotMesh,
+        u: fem.Function,
+        integrator: TimeIntegrator,
+        groups: Sequence[str],
+        law: SelfContactLaw,
+        *,
+        quadrature_degree: int,
+        key: str = "contact.self_contact_groups",
+    ) -> None:
+        domain = robot.mesh
+        self.comm: MPI.Comm = domain.comm
+        self.domain = domain
+        self.gdim = gdim = domain.geometry.dim
+        tdim = domain.topology.dim
+        fdim = tdim - 1
+        self.u = u
+        self.integrator = integrator
+        self.law = law
+        names = list(dict.fromkeys(groups))
+        if len(names) < 2:
+            raise CaseError(key, list(groups), "name at least two cell groups that may touch")
+        self.groups = names
+        num_cells = domain.topology.index_map(tdim)
+        cell_label = np.full(num_cells.size_local + num_cells.num_ghosts, -1, dtype=np.int32)
+        for i, name in enumerate(names):
+            try:
+                dim, cells = locate(robot, name)
+            except KeyError:
+                raise CaseError(
+                    key, name, "no such group; groups are " + ", ".join(sorted(robot.groups))
+                ) from None
+            if dim != tdim:
+                raise CaseError(key, name, "is not a cell group")
+            cell_label[cells] = i
+        domain.topology.create_connectivity(fdim, tdim)
+        exterior = dmesh.exterior_facet_indices(domain.topology)
+        f2c = domain.topology.connectivity(fdim, tdim)
+        facet_label = np.array([cell_label[f2c.links(f)[0]] for f in exterior], dtype=np.int32)
+        keep = facet_label >= 0
+        facets, facet_label = exterior[keep].astype(np.int32), facet_label[keep]
+        order = np.argsort(facets)
+        facets, facet_label = facets[order], facet_label[order]
+        tags = dmesh.meshtags(domain, fdim, facets, facet_label + 1)
+        ds = ufl.Measure(
+            "ds",
+            domain=domain,
+            subdomain_data=tags,
+            metadata={"quadrature_degree": quadrature_degree},
+        )
+        self.measure = ds(tuple(range(1, len(names) + 1)))
+
+        # contact data at the vertices of the contact surfaces
+        self.Vc = Vc = fem.functionspace(domain, ("Lagrange", 1, (gdim,)))
+        imap = Vc.dofmap.index_map
+        n_nodes = imap.size_local + imap.num_ghosts
+        self.size_local = imap.size_local
+        self.node_label = np.full(n_nodes, -1, dtype=np.int32)
+        for i in range(len(names)):
+            nodes = fem.locate_dofs_topological(Vc, fdim, facets[facet_label == i])
+            free = nodes[self.node_label[nodes] < 0]
+            self.node_label[free] = i
+        self.nodes = np.flatnonzero(self.node_label >= 0).astype(np.int32)
+        # facets of the contact surfaces as vertex dofs, and the facets around each contact vertex
+        vertex_to_dof = np.full(
+            domain.topology.index_map(0).size_local + domain.topology.index_map(0).num_ghosts,
+            -1,
+            dtype=np.int32,
+        )
+        domain.topology.create_connectivity(tdim, 0)
+        c2v = domain.topology.connectivity(tdim, 0).array.reshape(len(cell_label), -1)
+        vertex_to_dof[c2v] = Vc.dofmap.list
+        domain.topology.create_connectivity(fdim, 0)
+        f2v = domain.topology.connectivity(fdim, 0)
+        self.facet_dofs = np.array([vertex_to_dof[f2v.links(f)] for f in facets], dtype=np.int32)
+        if self.facet_dofs.size == 0:
+            self.facet_dofs = self.facet_dofs.reshape(0, gdim)
+        slot = np.zeros(n_nodes, dtype=np.int32)
+        self.adjacent = np.full((n_nodes, ADJACENT), -1, dtype=np.int32)
+        for f, dofs in enumerate(self.facet_dofs):
+            for d in dofs:
+                if slot[d] < ADJACENT:
+                    self.adjacent[d, slot[d]] = f
+                    slot[d] += 1
+        self.reference = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
+        self.lateral = self._largest_facet(facets)
+        self.xbar = fem.Function(Vc, name="self_contact_point")
+        self.nbar = fem.Function(Vc, name="self_contact_normal")
+        self.u_geom = fem.Function(u.function_space, name="self_contact_displacement")
+        self._u1 = fem.Function(Vc)
+        self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
+        self.onset = fem.Constant(domain, np.float64(law.onset))
+        self.partner = np.full(n_nodes, -1, dtype=np.int32)
+        self.gap = np.zeros(n_nodes)
+
+        X = ufl.SpatialCoordinate(domain)
+        phi = ufl.TestFunction(Vc)
+        F = ufl.Identity(gdim) + ufl.grad(self.u_geom)
+        cofactor = ufl.det(F) * ufl.inv(F).T
+        N = ufl.FacetNormal(domain)
+        self._normal_form = fem.form(ufl.inner(cofactor * N, phi) * self.measure)
+        # nodal forces at the observed state (u_geom = u_n during observation)
+        p = self.pressure(X + self.u_geom)
+        self._force_form = fem.form(ufl.inner(p * self.nbar, phi) * self.measure)
+        self._active: dict[tuple[int, int], bool] = {}
+        self.first_touch: dict[tuple[int, int], float] = {}
+        self.max_force = 0.0
+        self.max_penetration = 0.0
+        self.events: list[str] = []
+
+    # --- UFL --------------------------------------------------------------------------------
+
+    def gap_expression(self, x: Any) -> Any:
+        """Normal gap g = (x − x̄)·n̄ (m) of the slave point at current position x (UFL)."""
+        return ufl.dot(x - self.xbar, self.nbar)
+
+    def pressure(self, x: Any) -> Any:
+        """Contact pressure k_c r(−g) >= 0 (Pa per reference area) at position x (UFL)."""
+        r, _ = penalty_ramp(-self.gap_expression(x), self.onset)
+        return self.stiffness * r
+
+    def work(self, x: Any, w: Any) -> Any:
+        """Virtual work ∫ k_c r(−g) n̄·w dA (UFL form); subtract it from the residual.
+
+        Args:
+            x: current position X + u at the stage point, UFL vector (gdim,) (m).
+            w: test function of the displacement space.
+        """
+        return ufl.inner(self.pressure(x) * self.nbar, w) * self.measure
+
+    def energy(self, x: Any) -> Any:
+        """Penalty energy ½ Σ_passes ∫ k_c R(−g) dA (J; J/m for strips), UFL form."""
+        delta = -self.gap_expression(x)
+        return 0.5 * self.stiffness * penalty_energy(delta, self.onset) * self.measure
+
+    # --- search -----------------------------------------------------------------------------
+
+    def _largest_facet(self, facets: npt.NDArray[np.int32]) -> float:
+        """Largest vertex-to-vertex distance (m) of a contact facet, over all ranks."""
+        local = 0.0
+        if facets.size:
+            fdim = self.domain.topology.dim - 1
+            geo = dmesh.entities_to_geometry(self.domain, fdim, facets)
+            xyz = self.domain.geometry.x[geo]
+            diff = xyz[:, :, None, :] - xyz[:, None, :, :]
+            local = float(np.max(np.linalg.norm(diff, axis=-1)))
+        return float(self.comm.allreduce(local, op=MPI.MAX))
+
+    def refresh_stage(self) -> None:
+        """Search at the integrator's stage displacement (1 − αf) u + αf u_n (collective)."""
+        self._stage(self.integrator.u)
+        self._search()
+
+    def _stage(self, u: fem.Function) -> None:
+        integ = self.integrator
+        if integ.dynamic and integ.params is not None:
+            af = integ.params.alpha_f
+            self.u_geom.x.array[:] = (1.0 - af) * u.x.array + af * integ.u0.x.array
+        else:
+            self.u_geom.x.array[:] = u.x.array
+
+    def refresh(self, displacement: fem.Function) -> None:
+        """Search at the given displacement (m), e.g. u_n before an observation (collective)."""
+        self.u_geom.x.array[:] = displacement.x.array
+        self._search()
+
+    def _search(self) -> None:
+        gdim = self.gdim
+        self._u1.interpolate(self.u_geom)
+        b = fem.assemble_vector(self._normal_form)
+        b.scatter_reverse(la.InsertMode.add)
+        b.scatter_forward()
+        nodes = self.nodes
+        ref = self.reference[nodes]
+        x = ref + self._u1.x.array.reshape(-1, gdim)[nodes]
+        n = b.array.reshape(-1, gdim)[nodes]
+        norm = np.linalg.norm(n, axis=1)
+        n = n / np.where(norm > 0, norm, 1.0)[:, None]
+        label = self.node_label[nodes]
+        adjacent = self._facet_normals(n)[nodes]  # (nodes, ADJACENT, gdim)
+        owned = nodes < self.size_local
+        parts = self.comm.allgather((x[owned], adjacent[owned], label[owned], ref[owned]))
+        gx, gn, glabel, gref = (np.concatenate([p[k] for p in parts]) for k in range(4))
+
+        best_dist = np.full(nodes.size, np.inf)
+        xbar = x.copy()
+        nbar = np.zeros_like(x)
+        partner = np.full(nodes.size, -1, dtype=np.int32)
+        gap = np.zeros(nodes.size)
+        law = self.law
+        for j in range(len(self.groups)):
+            in_j = glabel == j
+            slaves = np.flatnonzero(label != j)
+            if not in_j.any() or slaves.size == 0:
+                continue
+            mx, mn, mref = gx[in_j], gn[in_j], gref[in_j]
+            k = min(CANDIDATES, len(mx))
+            dist, idx = cKDTree(mx).query(x[slaves], k=k)
+            dist, idx = dist.reshape(slaves.size, k), idx.reshape(slaves.size, k)
+            # of the facets around each candidate, the one that most opposes the slave's normal
+            around = mn[idx]  # (slaves, k, ADJACENT, gdim)
+            dots = np.einsum("sa,skja->skj", n[slaves], around)
+            dots[np.all(around == 0.0, axis=-1)] = np.inf
+            choice = np.argmin(dots, axis=-1)
+            normal = np.take_along_axis(around, choice[..., None, None], axis=2)[:, :, 0, :]
+            facing = np.take_along_axis(dots, choice[..., None], axis=2)[..., 0] < FACING
+            d = x[slaves][:, None, :] - mx[idx]
+            g = np.einsum("ska,ska->sk", d, normal)
+            lateral = np.linalg.norm(d - g[..., None] * normal, axis=-1)
+            far_in_reference = (
+                np.linalg.norm(ref[slaves][:, None, :] - mref[idx], axis=-1) >= law.exclusion
+            )
+            valid = facing & far_in_reference & (lateral <= self.lateral) & (g > -law.band)
+            has = valid.any(axis=1)
+            first = np.argmax(valid, axis=1)
+            rows = np.arange(slaves.size)
+            pick = idx[rows, first]
+            better = has & (dist[rows, first] < best_dist[slaves])
+            s = slaves[better]
+            best_dist[s] = dist[rows, first][better]
+            xbar[s] = mx[pick[better]]
+            nbar[s] = normal[rows, first][better]
+            partner[s] = j
+            gap[s] = g[rows, first][better]
+        self.xbar.x.array.reshape(-1, gdim)[nodes] = xbar
+        self.nbar.x.array.reshape(-1, gdim)[nodes] = nbar
+        self.xbar.x.scatter_forward()
+        self.nbar.x.scatter_forward()
+        self.partner[nodes] = partner
+        self.gap[nodes] = gap
+
+    def _facet_normals(self, nodal: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Unit outward normals (n_nodes, ADJACENT, gdim) of the contact facets around each vertex.
+
+        A facet's normal is the direction of least spread of its current
+        vertices (SVD; exact for segments and flat facets, the best-fit plane
+        of a warped quadrilateral), oriented along the sum of its vertices'
+        area-weighted nodal normals ``nodal`` (contact vertices, (nodes, gdim)).
+        Zero rows pad vertices with fewer facets.
+        """
+        gdim = self.gdim
+        out = np.zeros((self.node_label.size, ADJACENT, gdim))
+        if self.facet_dofs.shape[0] == 0:
+            return out
+        x = self.reference + self._u1.x.array.reshape(-1, gdim)
+        pts = x[self.facet_dofs]  # (facets, vertices, gdim)
+        _, _, vt = np.linalg.svd(pts - pts.mean(axis=1, keepdims=True))
+        normal = vt[:, -1, :]
+        full = np.zeros_like(x)
+        full[self.nodes] = nodal
+        orient = full[self.facet_dofs].sum(axis=1)
+        normal *= np.where(np.einsum("fa,fa->f", normal, orient) < 0, -1.0, 1.0)[:, None]
+        has = self.adjacent >= 0
+        out[has] = normal[self.adjacent[has]]
+        return out
+
+    # --- observation ------------------------------------------------------------------------
+
+    @property
+    def pairs(self) -> list[tuple[int, int]]:
+        """Unordered pairs (i < j) of group indices."""
+        return list(itertools.combinations(range(len(self.groups)), 2))
+
+    def pair_name(self, pair: tuple[int, int]) -> str:
+        """``<group_i>__<group_j>``."""
+        return f"{self.groups[pair[0]]}__{self.groups[pair[1]]}"
+
+    def columns(self) -> list[str]:
+        """CSV columns written by :meth:`observe`."""
+        cols = [
+            "self_contact_force",
+            "self_contact_penetration",
+            "self_contact_x",
+            "self_contact_y",
+            "self_contact_z",
+        ]
+        return cols + [f"self_contact_force_{self.pair_name(p)}" for p in self.pairs]
+
+    def observe(self, t: float, displacement: fem.Function, width: float = 1.0) -> dict[str, float]:
+        """Contact observables at the state ``displacement`` (u_n) (collective).
+
+        Refreshes the search at that state. Returns the :meth:`columns`:
+        force (N; strips: N/m × ``width``) summed over pairs and per pair
+        (mean of the two passes' resultant magnitudes), the largest
+        penetration −g (m, >= 0) and the pressure-weighted centroid of the
+        touching vertices (m; strips: (x, 0, z); NaN when nothing touches).
+        Records touch/release events in :attr:`events`.
+        """
+        self.refresh(displacement)
+        gdim = self.gdim
+        f = fem.assemble_vector(self._force_form)
+        f.scatter_reverse(la.InsertMode.add)
+        nodes = self.nodes[self.nodes < self.size_local]
+        force = f.array.reshape(-1, gdim)[nodes]
+        label, partner = self.node_label[nodes], self.partner[nodes]
+        x = self.reference[nodes] + self._u1.x.array.reshape(-1, gdim)[nodes]
+        pen = np.where(partner >= 0, -self.gap[nodes], 0.0)
+        ng = len(self.groups)
+        resultant = np.zeros((ng, ng, gdim))  # force on slave group i from master j
+        weight = np.zeros((ng, ng))
+        moment = np.zeros((ng, ng, gdim))
+        deepest = np.zeros((ng, ng))
+        touching = partner >= 0
+        mag = np.linalg.norm(force, axis=1)
+        li, pj = label[touching], partner[touching]
+        np.add.at(resultant, (li, pj), force[touching])
+        np.add.at(weight, (li, pj), mag[touching])
+        np.add.at(moment, (li, pj), mag[touching, None] * x[touching])
+        np.maximum.at(deepest, (li, pj), pen[touching])
+        resultant, weight, moment = (_sum(a, self.comm) for a in (resultant, weight, moment))
+        deepest_all = np.zeros_like(deepest)
+        self.comm.Allreduce(deepest, deepest_all, op=MPI.MAX)
+        deepest = deepest_all
+        row: dict[str, float] = {}
+        total, total_w, total_m = 0.0, 0.0, np.zeros(gdim)
+        for p in self.pairs:
+            i, j = p
+            fp = 0.5 * width * (np.linalg.norm(resultant[i, j]) + np.linalg.norm(resultant[j, i]))
+            row[f"self_contact_force_{self.pair_name(p)}"] = float(fp)
+            w = weight[i, j] + weight[j, i]
+            total += fp
+            total_w += w
+            total_m += moment[i, j] + moment[j, i]
+            active = bool(max(deepest[i, j], deepest[j, i]) > TOUCH * self.law.onset)
+            was = self._active.get(p, False)
+            if active and not was:
+                where = (moment[i, j] + moment[j, i]) / w
+                self.first_touch.setdefault(p, t)
+                self.events.append(
+                    f"t = {t:.6g} s: {self.groups[i]} touches {self.groups[j]} at "
+                    f"{_mm(where)} mm, force {fp:.3g} N"
+                )
+            elif was and not active:
+                self.events.append(f"t = {t:.6g} s: {self.groups[i]} leaves {self.groups[j]}")
+            self._active[p] = active
+        centroid = total_m / total_w if total_w > 0 else np.full(gdim, np.nan)
+        c3 = centroid if gdim == 3 else np.array([centroid[0], 0.0, centroid[1]])
+        penetration = float(np.max(deepest)) if deepest.size else 0.0
+        row["self_contact_force"] = total
+        row["self_contact_penetration"] = penetration
+        row["self_contact_x"], row["self_contact_y"], row["self_contact_z"] = map(float, c3)
+        self.max_force = max(self.max_force, total)
+        self.max_penetration = max(self.max_penetration, penetration)
+        return row
+
+    def pop_events(self) -> list[str]:
+        """Touch/release messages since the last call (identical on every rank)."""
+        out, self.events = self.events, []
+        return out
+
+    def summary(self) -> dict[str, float]:
+        """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)."""
+        out = {
+            f"first_touch_{self.pair_name(p)}": self.first_touch.get(p, float("nan"))
+            for p in self.pairs
+        }
+        out["max_self_contact_force"] = self.max_force
+        out["max_self_contact_penetration"] = self.max_penetration
+        return out
+
+
+def _sum(a: npt.NDArray[np.float64], comm: MPI.Comm) -> npt.NDArray[np.float64]:
+    out = np.zeros_like(a)
+    comm.Allreduce(np.ascontiguousarray(a), out, op=MPI.SUM)
+    return out
+
+
+def _mm(x: npt.NDArray[np.float64]) -> str:
+    return "(" + ", ".join(f"{1e3 * v:.3g}" for v in x) + ")"
+
+
+def create_self_contact(
+    spec: ContactSpec,
+    robot: RobotMesh,
+    u: fem.Function,
+    integrator: TimeIntegrator,
+    *,
+    shear_modulus: float,
+    quadrature_degree: int,
+) -> SelfContact:
+    """The self contact of a ``[contact]`` table (``self_contact = true``) on ``robot``.
+
+    k_c = κ_s μ / h, δ0 = onset × h, exclusion = exclusion × h, band = h
+    (h = ``robot.thickness``); groups default to the robot's arms.
+
+    Raises:
+        CaseError: fewer than two groups, an unknown or non-cell group.
+    """
+    h = robot.thickness
+    groups = spec.self_contact_groups or tuple(arm.name for arm in robot.arms)
+    law = SelfContactLaw(
+        stiffness=spec.self_contact_penalty * shear_modulus / h,
+        onset=spec.self_contact_onset * h,
+        exclusion=spec.self_contact_exclusion * h,
+        band=h,
+    )
+    return SelfContact(robot, u, integrator, groups, law, quadrature_degree=quadrature_degree)
