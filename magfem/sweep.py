@@ -39,7 +39,10 @@ DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_1period_<ar
 and ``max_angle_2periods_<arm>`` (max |θ| over [t₀, t₀ + 1/f] and
 [t₀, t₀ + 2/f], f the first periodic source's frequency), ``final_angle_<arm>``;
 ``max_strain``, ``max_energy_density`` (J/m³, ρE = 3με²/2),
-``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step).
+``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step); the midline
+and speed entries of :func:`magfem.mechanics.observers.summarize_midline`
+(``final_active_length_<arm>`` m, ``max_folds_<arm>``, ``max_tip_normal_<arm>``,
+``max_spread_<arm>``, ``bending_speed_<arm>`` rad/s, ``collapse``, ``partial_bending``).
 """
 
 from __future__ import annotations
@@ -211,6 +214,9 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
                 out[f"max_angle_{label}_{arm}"] = (
                     float(np.nanmax(np.abs(values[mask]))) if covered else math.nan
                 )
+    from magfem.mechanics.observers import summarize_midline
+
+    out |= summarize_midline(cols)
     if "strain" in cols:
         out["max_strain"] = float(np.nanmax(cols["strain"]))
     if "energy_density" in cols:

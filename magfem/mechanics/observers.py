@@ -18,6 +18,40 @@ Definitions (DESIGN.md, after Wang, Mao et al., Commun. Mater. 1, 67 (2020)):
   patch ends is a stress singularity, whose FE strain (16.6 % on the default
   case, against a bending strain t/(2R) of ~1 %) measures the mesh, not the
   arm (:class:`StrainProbe`).
+* **Midline shape** of an arm (:class:`MidlineProbe`, :func:`midline_shape`):
+  the deformed midline is sampled at ``MIDLINE_SAMPLES`` equally spaced
+  reference points X_k = root + s_k e, s_k = k h, h = L/(N − 1), and written
+  in the arm's side frame relative to the reference root: a_k = (x_k −
+  root)·e along the arm, w_k = (x_k − root)·n normal to it (n the resting
+  plane's normal; w_k is the out-of-plane displacement because the reference
+  midline has w = 0). Segment tangent angles φ_{k+½} = atan2(Δw, Δa)
+  (unwrapped along s) give the curvature at interior samples
+  κ_k = (φ_{k+½} − φ_{k−½})/h (per unit reference length; exact for a
+  circular arc whose ends lie on samples). With the threshold
+  κ* = max(η max_k |κ_k|, κ_floor/L), η = ``ACTIVE_CURVATURE_FRACTION`` = 0.1,
+  κ_floor = ``CURVATURE_FLOOR`` = 10⁻³ rad:
+
+  - **active length** L_a = s of the last sample with |κ_k| ≥ κ* (0 when
+    none): the arc length from the root to where the arm stops bending and
+    runs straight. A circular arc over [0, ℓ] followed by a straight part
+    gives ℓ to within h; a small-deflection cantilever under a uniform
+    distributed torque (κ ∝ L − s) gives (1 − η) L.
+  - **folds**: the number of maximal runs of consecutive samples with
+    |κ_k| ≥ κ* and one sign of κ that turn the tangent by at least
+    ``FOLD_ANGLE`` = 45° (|Σ κ_k h| ≥ 45°). An arm bent at its root is one
+    fold; an S or a second crease is two; a straight arm in any rigid
+    rotation is zero. Collapse when > 1 (DESIGN.md).
+  - **normal tip displacement** |w_tip|/L (collapse when > 0.2, DESIGN.md)
+    and **spread of the out-of-plane displacement** std_k(w_k)/L (partial
+    bending when > 0.1, DESIGN.md), both over the body (arm) length L.
+    These two follow DESIGN.md's wording literally ("normal to the arm" =
+    along the resting-plane normal n; "spread" = standard deviation over
+    equally spaced samples along x); the paper's own definitions were not
+    available to check them against.
+* **Bending speed** 0° → 90° (:func:`bending_speed`): 90° over the time from
+  the last instant the angle was ≤ 0° to the first instant it reaches 90°
+  after it (both linearly interpolated between samples), in rad/s
+  (reported in °/ms).
 * Energy density ρE = 3 μ ε_a²/2 and power density ρW = f ρE
   (:func:`magfem.material.energy_density`), kinetic/elastic/magnetic/gravity
   energy (J; J per m of width for strips) and the resultant ground force (N).
@@ -30,7 +64,8 @@ the same values.
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
 
 import basix
 import numpy as np
@@ -43,15 +78,36 @@ from magfem.geometry.robot_mesh import Arm
 
 __all__ = [
     "AngleUnwrapper",
+    "MidlineProbe",
+    "MidlineShape",
     "PointEvaluator",
     "StrainProbe",
     "arm_angle_points",
     "bending_angle",
+    "bending_speed",
     "max_over_window",
+    "midline_points",
+    "midline_shape",
+    "summarize_midline",
 ]
 
 TIP_OFFSET = 1e-3
 """δ/L of the tip-tangent difference (see the module docstring)."""
+
+MIDLINE_SAMPLES = 81
+"""Samples N of an arm's midline (spacing L/80: 4–20 per element on the scenes' meshes)."""
+ACTIVE_CURVATURE_FRACTION = 0.1
+"""η: a sample bends when |κ| ≥ η max|κ| (module docstring)."""
+CURVATURE_FLOOR = 1e-3
+"""κ_floor (rad): curvatures below κ_floor/L never count as bending."""
+FOLD_ANGLE = math.pi / 4
+"""Smallest turn (rad) of a bent run of the midline that counts as a fold."""
+COLLAPSE_TIP_NORMAL = 0.2
+"""|w_tip|/L above which an arm has collapsed (DESIGN.md)."""
+COLLAPSE_FOLDS = 1
+"""More folds than this: collapse (DESIGN.md)."""
+PARTIAL_SPREAD = 0.1
+"""std(w)/L above which an arm bends partially (DESIGN.md)."""
 
 
 class PointEvaluator:
@@ -128,6 +184,197 @@ def bending_angle(
     else:
         along, normal = float(d[0] * e[0]), float(d[1])
     return math.atan2(normal, along)
+
+
+def midline_points(arm: Arm, samples: int = MIDLINE_SAMPLES) -> npt.NDArray[np.float64]:
+    """Reference points (samples, 3) X_k = root + s_k e of the arm's midline, root to tip (m).
+
+    The last point sits just inside the tip face (as :func:`arm_angle_points`).
+    """
+    root, e = np.asarray(arm.root, dtype=float), np.asarray(arm.direction, dtype=float)
+    s = np.linspace(0.0, arm.length * (1.0 - 1e-9), samples)
+    return root[None, :] + s[:, None] * e[None, :]
+
+
+class MidlineShape(NamedTuple):
+    """Shape observables of one deformed arm midline (module docstring).
+
+    Attributes:
+        active_length: L_a (m).
+        folds: number of folds.
+        tip_normal: |w_tip|/L (dimensionless).
+        spread: std(w)/L (dimensionless).
+    """
+
+    active_length: float
+    folds: int
+    tip_normal: float
+    spread: float
+
+
+def midline_shape(
+    s: npt.NDArray[np.float64],
+    a: npt.NDArray[np.float64],
+    w: npt.NDArray[np.float64],
+    length: float,
+) -> MidlineShape:
+    """Active length, folds, normal tip displacement and spread of a deformed midline.
+
+    Args:
+        s: (N,) equally spaced reference arc lengths from the root, s_0 = 0 (m).
+        a: (N,) deformed positions along the arm's direction e, relative to the
+            reference root (m).
+        w: (N,) deformed positions along the resting-plane normal n, relative
+            to the reference root (m) (= the out-of-plane displacement).
+        length: body (arm) length L (m).
+
+    Returns:
+        the :class:`MidlineShape` (definitions in the module docstring).
+    """
+    s = np.asarray(s, dtype=float)
+    a = np.asarray(a, dtype=float)
+    w = np.asarray(w, dtype=float)
+    h = float(s[1] - s[0])
+    phi = np.unwrap(np.arctan2(np.diff(w), np.diff(a)))
+    kappa = np.diff(phi) / h  # at the interior samples s[1:-1]
+    kmax = float(np.max(np.abs(kappa))) if kappa.size else 0.0
+    threshold = max(ACTIVE_CURVATURE_FRACTION * kmax, CURVATURE_FLOOR / length)
+    bent = np.abs(kappa) >= threshold
+    active = float(s[1:-1][bent][-1]) if np.any(bent) else 0.0
+    folds = 0
+    turn = 0.0
+    sign = 0.0
+    for k in range(kappa.size + 1):  # one pass over runs; k == size closes the last run
+        inside = k < kappa.size and bool(bent[k])
+        ksign = float(np.sign(kappa[k])) if inside else 0.0
+        if sign != 0.0 and ksign != sign:  # the current run ends here
+            folds += int(abs(turn) >= FOLD_ANGLE)
+            turn, sign = 0.0, 0.0
+        if inside:
+            sign = ksign
+            turn += float(kappa[k]) * h
+    return MidlineShape(
+        active_length=active,
+        folds=folds,
+        tip_normal=abs(float(w[-1])) / length,
+        spread=float(np.std(w)) / length,
+    )
+
+
+class MidlineProbe:
+    """Midline shape of every arm at the current displacement (collective).
+
+    Args:
+        function_space: space of the displacement.
+        arms: the robot's arms.
+        samples: midline samples per arm.
+
+    Calling it with the displacement returns the CSV columns of
+    :meth:`columns` (``active_length_<arm>`` in m, ``folds_<arm>``,
+    ``tip_normal_<arm>``, ``spread_<arm>``), identical on every rank.
+    """
+
+    def __init__(
+        self, function_space: fem.FunctionSpace, arms: Sequence[Arm], samples: int = MIDLINE_SAMPLES
+    ):
+        self.arms = list(arms)
+        self.gdim = function_space.mesh.geometry.dim
+        self.samples = samples
+        self.points = np.vstack([midline_points(a, samples) for a in self.arms])
+        self.evaluator = PointEvaluator(function_space, self.points)
+
+    def columns(self) -> list[str]:
+        """CSV column names."""
+        keys = ("active_length", "folds", "tip_normal", "spread")
+        return [f"{k}_{a.name}" for a in self.arms for k in keys]
+
+    def __call__(self, u: fem.Function) -> dict[str, float]:
+        disp = self.evaluator(u)[:, : self.gdim]
+        x = self.points[:, : self.gdim] + disp
+        row: dict[str, float] = {}
+        n = self.samples
+        for i, arm in enumerate(self.arms):
+            xi = x[i * n : (i + 1) * n] - np.asarray(arm.root, dtype=float)[: self.gdim]
+            e = np.asarray(arm.direction, dtype=float)[: self.gdim]
+            along = xi @ e if self.gdim == 3 else xi[:, 0] * e[0]
+            normal = xi[:, 2] if self.gdim == 3 else xi[:, 1]
+            s = np.linspace(0.0, arm.length * (1.0 - 1e-9), n)
+            shape = midline_shape(s, along, normal, arm.length)
+            row[f"active_length_{arm.name}"] = shape.active_length
+            row[f"folds_{arm.name}"] = float(shape.folds)
+            row[f"tip_normal_{arm.name}"] = shape.tip_normal
+            row[f"spread_{arm.name}"] = shape.spread
+        return row
+
+
+def bending_speed(
+    times: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    start: float = 0.0,
+    stop: float = math.pi / 2,
+) -> float:
+    """Mean angular speed (rad/s) of the first rise of ``angles`` from ``start`` to ``stop``.
+
+    (stop − start)/(t_stop − t_start): t_stop the first instant the angle
+    reaches ``stop``, t_start the last instant before it at which the angle
+    was ≤ ``start`` (both interpolated linearly between samples). nan when the
+    angle never reaches ``stop`` or was never ≤ ``start`` before.
+
+    Args:
+        times: (N,) s, increasing. angles: (N,) rad (unwrapped).
+    """
+    t = np.asarray(times, dtype=float)
+    th = np.asarray(angles, dtype=float)
+    up = np.nonzero(th >= stop)[0]
+    if up.size == 0 or up[0] == 0:
+        return math.nan
+    j = int(up[0])
+    t_stop = t[j - 1] + (stop - th[j - 1]) * (t[j] - t[j - 1]) / (th[j] - th[j - 1])
+    low = np.nonzero(th[:j] <= start)[0]
+    if low.size == 0:
+        return math.nan
+    i = int(low[-1])
+    if th[i + 1] == th[i]:
+        t_start = t[i]
+    else:
+        t_start = t[i] + (start - th[i]) * (t[i + 1] - t[i]) / (th[i + 1] - th[i])
+    return (stop - start) / (t_stop - t_start) if t_stop > t_start else math.nan
+
+
+def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
+    """Summary entries of the midline and speed observables from a run's history columns.
+
+    Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
+    ``max_folds_<arm>``, ``max_tip_normal_<arm>``, ``max_spread_<arm>``,
+    ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached); and, when
+    any arm has midline columns, ``collapse`` (1.0 if an arm's max tip normal
+    displacement exceeds 0.2 or its folds exceed 1, else 0.0) and
+    ``partial_bending`` (1.0 if an arm's max spread exceeds 0.1).
+    """
+    out: dict[str, float] = {}
+    t = np.asarray(history["time"], dtype=float)
+    collapse = partial = False
+    have = False
+    for key in history:
+        if key.startswith("angle_"):
+            arm = key[len("angle_") :]
+            out[f"bending_speed_{arm}"] = bending_speed(t, history[key])
+        if not key.startswith("active_length_"):
+            continue
+        have = True
+        arm = key[len("active_length_") :]
+        out[f"final_active_length_{arm}"] = float(history[key][-1])
+        folds = float(np.nanmax(history[f"folds_{arm}"]))
+        tip = float(np.nanmax(history[f"tip_normal_{arm}"]))
+        spread = float(np.nanmax(history[f"spread_{arm}"]))
+        out[f"max_folds_{arm}"], out[f"max_tip_normal_{arm}"] = folds, tip
+        out[f"max_spread_{arm}"] = spread
+        collapse |= tip > COLLAPSE_TIP_NORMAL or folds > COLLAPSE_FOLDS
+        partial |= spread > PARTIAL_SPREAD
+    if have:
+        out["collapse"] = float(collapse)
+        out["partial_bending"] = float(partial)
+    return out
 
 
 class AngleUnwrapper:

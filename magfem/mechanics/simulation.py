@@ -38,12 +38,14 @@ from mpi4py import MPI
 from magfem import material
 from magfem.mechanics.observers import (
     AngleUnwrapper,
+    MidlineProbe,
     PointEvaluator,
     StrainProbe,
     arm_angle_points,
     assemble_scalars,
     bending_angle,
     max_over_window,
+    summarize_midline,
 )
 from magfem.mechanics.problem import MembraneProblem, build_membrane_problem
 from magfem.mechanics.solver import NewtonReport, NewtonSolver, solve_linear
@@ -159,6 +161,7 @@ class MembraneSimulation:
         self._angle_points = pts
         self._angle_eval = PointEvaluator(self.u.function_space, pts) if pts is not None else None
         self._unwrap = {name: AngleUnwrapper() for name in self.arms}
+        self.midline = MidlineProbe(self.u.function_space, robot_mesh.arms) if self.arms else None
         self.strain_probe = StrainProbe(
             self.u, self._support_points(), radius=robot_mesh.thickness * (1 + 1e-6)
         )
@@ -202,6 +205,8 @@ class MembraneSimulation:
             for i, (name, arm) in enumerate(self.arms.items()):
                 raw = bending_angle(x[2 * i], x[2 * i + 1], arm, self.gdim)
                 row[f"angle_{name}"] = self._unwrap[name](raw)
+        if self.midline is not None:
+            row |= self.midline(self.u)
         strain = self.strain_probe()
         row["strain"] = strain
         row["energy_density"] = material.energy_density(self.case.material.shear_modulus, strain)
@@ -228,6 +233,7 @@ class MembraneSimulation:
         """CSV column names."""
         cols = ["time", "dt", "newton_iterations", "cuts"]
         cols += [f"angle_{n}" for n in self.arms]
+        cols += self.midline.columns() if self.midline is not None else []
         cols += ["strain", "energy_density"]
         cols += [f"energy_{n}" for n in self.energy_forms] + ["energy_total"]
         if self.contact_forms:
@@ -463,6 +469,7 @@ class MembraneSimulation:
             out["power_density"] = self.frequency * out["max_energy_density"]
         if self.self_contact is not None:
             out |= self.self_contact.summary()
+        out |= summarize_midline(history)
         for name in self.arms:
             angle = history[f"angle_{name}"]
             out[f"max_angle_{name}"] = float(np.max(np.abs(angle)))

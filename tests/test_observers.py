@@ -1,0 +1,170 @@
+"""Midline observables (active length, folds, failure indicators) and bending speed.
+
+The pure functions are checked against midlines whose shape is known in
+closed form (circular arcs, rigid rotations, a small-deflection cantilever
+under a uniform distributed torque); :class:`MidlineProbe` is checked on a
+real strip mesh (serially and under ``mpirun -n 2``) with a displacement
+field that P2 represents exactly (a rigid rotation about the root).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from magfem.mechanics.observers import (
+    ACTIVE_CURVATURE_FRACTION,
+    MidlineProbe,
+    bending_speed,
+    midline_shape,
+    summarize_midline,
+)
+
+L = 10e-3
+N = 81
+S = np.linspace(0.0, L, N)
+H = L / (N - 1)
+
+
+def _from_angles(phi_mid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Midline with segment k at tangent angle phi_mid[k] (inextensible, starts at 0)."""
+    a = np.concatenate([[0.0], np.cumsum(H * np.cos(phi_mid))])
+    w = np.concatenate([[0.0], np.cumsum(H * np.sin(phi_mid))])
+    return a, w
+
+
+def _arc_then_straight(radius: float, ell: float, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact positions: a circular arc of radius R (curving up) over [0, ell], then its tangent."""
+    ang = np.minimum(s, ell) / radius
+    a = radius * np.sin(ang) + np.maximum(s - ell, 0.0) * np.cos(ell / radius)
+    w = radius * (1 - np.cos(ang)) + np.maximum(s - ell, 0.0) * np.sin(ell / radius)
+    return a, w
+
+
+@pytest.mark.parametrize("ell_fraction", [0.25, 0.5, 0.8])
+def test_arc_then_straight_active_length_and_one_fold(ell_fraction):
+    ell = ell_fraction * L
+    radius = ell / math.radians(100)  # the arc turns the tangent by 100 deg
+    a, w = _arc_then_straight(radius, ell, S)
+    shape = midline_shape(S, a, w, L)
+    # curvature is exact on segments inside the arc; the one straddling s = ell is partly bent,
+    # so the active length is resolved to one sample spacing
+    assert abs(shape.active_length - ell) <= H * (1 + 1e-9)
+    assert shape.folds == 1
+    w_tip = radius * (1 - math.cos(ell / radius)) + (L - ell) * math.sin(ell / radius)
+    assert shape.tip_normal == pytest.approx(abs(w_tip) / L, rel=1e-12)
+    assert shape.spread == pytest.approx(np.std(w) / L, rel=1e-12)
+
+
+@pytest.mark.parametrize("alpha_deg", [0.0, 30.0, 120.0, -75.0, 200.0])
+def test_rigid_rotation_has_no_fold_and_no_active_length(alpha_deg):
+    alpha = math.radians(alpha_deg)
+    a, w = S * math.cos(alpha), S * math.sin(alpha)
+    shape = midline_shape(S, a, w, L)
+    assert shape.folds == 0
+    assert shape.active_length == 0.0
+    assert shape.tip_normal == pytest.approx(abs(math.sin(alpha)), abs=1e-12)
+    # std of s sin(alpha) over equally spaced s in [0, L]: |sin a| L sqrt((N+1)/(12 (N-1)))
+    expected = abs(math.sin(alpha)) * math.sqrt((N + 1) / (12 * (N - 1)))
+    assert shape.spread == pytest.approx(expected, abs=1e-12)
+
+
+def test_s_shape_and_two_creases_are_two_folds():
+    # S: +60 deg over the first half, -60 deg over the second (no straight part between)
+    k = math.radians(60) / (L / 2)
+    s_mid = S[:-1] + H / 2
+    phi = np.where(s_mid < L / 2, k * s_mid, k * L - k * s_mid)
+    shape = midline_shape(S, *_from_angles(phi), L)
+    assert shape.folds == 2
+    # two +90 deg creases over [0.1, 0.2] L and [0.6, 0.7] L, straight elsewhere
+    k = math.radians(90) / (0.1 * L)
+    bend = np.clip(s_mid - 0.1 * L, 0, 0.1 * L) + np.clip(s_mid - 0.6 * L, 0, 0.1 * L)
+    shape = midline_shape(S, *_from_angles(k * bend), L)
+    assert shape.folds == 2
+    assert abs(shape.active_length - 0.7 * L) <= H
+    # a bend below the fold angle (30 deg) is not a fold
+    shape = midline_shape(S, *_from_angles(np.radians(30) / L * s_mid), L)
+    assert shape.folds == 0
+
+
+def test_cantilever_under_uniform_torque_active_length():
+    # small deflection under a uniform distributed torque m: kappa(s) = m (L - s)/(E I);
+    # tangent angle phi(s) = kappa0 (L s - s^2/2), exact central differences of a quadratic
+    kappa0 = 0.05 / L**2
+    s_mid = S[:-1] + H / 2
+    phi = kappa0 * (L * s_mid - s_mid**2 / 2)
+    shape = midline_shape(S, *_from_angles(phi), L)
+    # |kappa| >= eta max|kappa| <=> L - s >= eta (L - h): s <= L - eta (L - h)
+    expected = L - ACTIVE_CURVATURE_FRACTION * (L - H)
+    assert expected - H <= shape.active_length <= expected + 1e-12
+    assert shape.folds == 0  # the whole arm turns by 0.05/2 rad < 45 deg
+
+
+def test_bending_speed_of_linear_and_sine_rises():
+    t = np.linspace(0.0, 0.05, 501)
+    omega = math.radians(90) / 0.012  # reaches 90 deg 12 ms after starting at t0 = 10 ms
+    theta = np.where(t > 0.01, omega * (t - 0.01), 0.0)
+    assert bending_speed(t, theta) == pytest.approx(omega, rel=1e-9)
+    # sine: theta = A sin(2 pi f t), 90 deg reached at t90 = asin(90/A)/(2 pi f), from t = 0;
+    # linear interpolation of a smooth curve: error O(dt^2 theta''/theta') ~ 1e-4 here
+    amp, f = math.radians(150), 20.0
+    t = np.linspace(0.0, 0.05, 2001)
+    theta = amp * np.sin(2 * math.pi * f * t)
+    t90 = math.asin(90 / 150) / (2 * math.pi * f)
+    assert bending_speed(t, theta) == pytest.approx(math.radians(90) / t90, rel=1e-3)
+    assert math.isnan(bending_speed(t, 0.5 * theta))  # never reaches 90 deg
+
+
+def test_summary_flags_collapse_and_partial_bending():
+    t = np.array([0.0, 1.0, 2.0])
+    base = {"time": t, "angle_arm": np.radians([0.0, 50.0, 100.0])}
+    quiet = base | {
+        "active_length_arm": np.array([0.0, 1e-3, 2e-3]),
+        "folds_arm": np.array([0.0, 1.0, 1.0]),
+        "tip_normal_arm": np.array([0.0, 0.1, 0.19]),
+        "spread_arm": np.array([0.0, 0.05, 0.09]),
+    }
+    out = summarize_midline(quiet)
+    assert out["collapse"] == 0.0 and out["partial_bending"] == 0.0
+    assert out["final_active_length_arm"] == 2e-3 and out["max_folds_arm"] == 1.0
+    assert out["bending_speed_arm"] == pytest.approx(math.radians(90) / 1.8)
+    folded = quiet | {"folds_arm": np.array([0.0, 2.0, 1.0])}
+    assert summarize_midline(folded)["collapse"] == 1.0
+    lifted = quiet | {"tip_normal_arm": np.array([0.0, 0.3, 0.1])}
+    assert summarize_midline(lifted)["collapse"] == 1.0
+    spread = quiet | {"spread_arm": np.array([0.0, 0.2, 0.0])}
+    assert summarize_midline(spread)["partial_bending"] == 1.0
+
+
+def test_midline_probe_on_a_strip_rigid_rotation(repo, comm):
+    """P2 holds a rigid rotation exactly: no fold, no active length, tip_normal = |sin a|."""
+    from dolfinx import fem
+
+    from magfem.case import load_case
+    from magfem.geometry.robot_mesh import create_robot_mesh
+
+    case = load_case(repo / "cases" / "active_length.toml", ["mesh.size=1mm", "mesh.layers=1"])
+    robot = create_robot_mesh(case.robot, case.mesh, comm)
+    V = fem.functionspace(robot.mesh, ("Lagrange", 2, (2,)))
+    arm = robot.arms[0]
+    root = np.asarray(arm.root)[:2]
+    alpha = math.radians(70)
+    rot = np.array([[math.cos(alpha), -math.sin(alpha)], [math.sin(alpha), math.cos(alpha)]])
+    if arm.direction[0] < 0:
+        rot = rot.T  # an arm pointing to -x lifts by turning the other way
+
+    def rotation(x):
+        d = x[:2] - root[:, None]
+        return rot @ d - d
+
+    u = fem.Function(V)
+    u.interpolate(rotation)
+    probe = MidlineProbe(V, robot.arms)
+    row = probe(u)
+    name = arm.name
+    assert row[f"folds_{name}"] == 0.0
+    assert row[f"active_length_{name}"] == 0.0
+    assert row[f"tip_normal_{name}"] == pytest.approx(math.sin(alpha) * (1 - 1e-9), rel=1e-9)
+    assert set(probe.columns()) == set(row)
