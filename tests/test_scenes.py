@@ -40,7 +40,15 @@ import pytest
 from magfem.case import load_case
 from magfem.cli import main
 
-QUIET = ["--set", "output.vtx_every=0", "--set", "output.plot=false", "-q"]
+QUIET = [
+    "--set",
+    "output.vtx_every=0",
+    "--set",
+    "output.plot=false",
+    "--set",
+    "output.animation=false",
+    "-q",
+]
 
 
 def _tiny(size: str, end: str, step: str, *extra: str) -> list[str]:

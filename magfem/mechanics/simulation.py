@@ -303,6 +303,9 @@ class MembraneSimulation:
             )
         if report.converged:
             integ.advance()
+            if self.problem.impact_absorber is not None:
+                # columns that just landed stop (inelastic impact, see contact.py)
+                self.problem.impact_absorber.apply(integ.u0, integ.v0, integ.a0)
         else:
             integ.restore()
         return report
@@ -321,7 +324,14 @@ class MembraneSimulation:
         Raises:
             SimulationError: Newton failed ``max_cuts`` times in a row or below ``min_step``.
         """
-        from magfem.mechanics.output import CsvHistory, VtxOutput, plot_angles
+        from magfem.mechanics.output import (
+            CsvHistory,
+            MotionSnapshots,
+            VtxOutput,
+            plot_angles,
+            remove_snapshots,
+            write_animation,
+        )
         from magfem.parallel import progress as progress_bar
 
         spec = self.case.time
@@ -342,6 +352,23 @@ class MembraneSimulation:
         if outdir is not None and out.vtx_every > 0:
             paths["vtx"] = outdir / "displacement.bp"
             vtx = VtxOutput(paths["vtx"], [self.u], self.comm)
+        snaps = None
+        if outdir is not None and out.animation:
+            paths["gif"] = outdir / "motion.gif"
+            snaps = MotionSnapshots(
+                outdir / "snapshots",
+                self.u,
+                self.comm,
+                frames=out.animation_frames,
+                start=spec.start,
+                end=spec.end,
+            )
+
+        def animate() -> None:
+            if snaps is not None and self.comm.rank == 0:
+                if write_animation(snaps.directory, paths["gif"], title=self.case.name):
+                    remove_snapshots(snaps.directory)
+
         rows: list[dict[str, float]] = []
         t = spec.start
         row = self.observe(t) | {"dt": 0.0, "newton_iterations": 0, "cuts": 0}
@@ -350,6 +377,8 @@ class MembraneSimulation:
             csv_out.write(row)
         if vtx is not None:
             vtx.write(t)
+        if snaps is not None:
+            snaps.write(t, (row["Bx"], row["By"], row["Bz"]))
         bar = (
             progress_bar(spec.end - spec.start, desc=self.case.name, unit="s", comm=self.comm)
             if progress
@@ -401,6 +430,8 @@ class MembraneSimulation:
                     csv_out.write(row)
                 if vtx is not None and self.steps % out.vtx_every == 0:
                     vtx.write(t)
+                if snaps is not None and snaps.due(t):
+                    snaps.write(t, (row["Bx"], row["By"], row["Bz"]))
                 if bar is not None:
                     bar.update(dt)
                     bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
@@ -418,6 +449,9 @@ class MembraneSimulation:
                     )
                     self.dt = new_dt
                     easy_streak = 0
+        except SimulationError:
+            animate()  # the motion up to the failure
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -438,6 +472,7 @@ class MembraneSimulation:
                     np.column_stack([history["Bx"], history["By"], history["Bz"]]),
                     title=self.case.name,
                 )
+        animate()
         timings = self.timings()
         timings["total"] = _time.perf_counter() - t_wall
         return SimulationResult(history, summary, paths, list(self.log), timings)
