@@ -60,6 +60,19 @@ Friction (regularised Coulomb).
     *Computational Contact Mechanics*, 2nd ed., Springer 2006, §5.2 for the
     penalty and regularised-friction laws).
 
+    Stick on tiny steps. With the velocity of the time integrator,
+    :math:`\partial\mathbf v/\partial\mathbf u = \gamma/(\beta\Delta t)`, so the
+    tangent of the viscous branch grows like :math:`\mu_f p_n/(v_\varepsilon\Delta t)`
+    and Newton stalls when an impact forces Δt down to ~1e-6 s (the default
+    case's arm landing on its top face at t ≈ 30 ms). The solver therefore
+    passes Δt, and the regularisation is
+    :math:`\sqrt{v_\varepsilon^2 + (\ell/\Delta t)^2}`: a slip of ℓ per step
+    is "sticking". At the nominal step this is a few mm/s (ℓ = 0.01 h,
+    Δt = 0.5 ms: 1.6 mm/s for 80 µm) and changes sliding by
+    :math:`(\ell/(v\Delta t))^2/2`; on the tiny steps of an impact the
+    friction tangent stays bounded by :math:`\mu_f p_n/\ell`, an elastic
+    stick of stiffness μ_f p_n/ℓ.
+
 Both laws are written with the *current* position and velocity as UFL
 expressions of the unknown displacement, so ``ufl.derivative`` gives their
 exact linearisation (including the dependence of the velocity on the
@@ -164,6 +177,8 @@ class GroundContactLaw:
         damping: contact dashpot c_n (Pa·s/m) >= 0.
         friction: Coulomb coefficient μ_f >= 0.
         regularization_velocity: v_ε > 0 (m/s).
+        slip_length: ℓ >= 0 (m); with a time step Δt the friction is
+            regularised by sqrt(v_ε² + (ℓ/Δt)²) instead of v_ε.
     """
 
     stiffness: float
@@ -171,6 +186,7 @@ class GroundContactLaw:
     damping: float = 0.0
     friction: float = 0.5
     regularization_velocity: float = 1e-3
+    slip_length: float = 0.0
 
     def __post_init__(self) -> None:
         # programming errors only: user input is validated by ContactSpec
@@ -178,7 +194,7 @@ class GroundContactLaw:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"GroundContactLaw.{name} must be finite and > 0, got {value!r}")
-        for name in ("damping", "friction"):
+        for name in ("damping", "friction", "slip_length"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"GroundContactLaw.{name} must be finite and >= 0, got {value!r}")
@@ -218,6 +234,7 @@ def create_ground_contact_law(
         damping=spec.damping * critical_contact_damping(k_n, density, thickness),
         friction=spec.friction,
         regularization_velocity=spec.regularization_velocity,
+        slip_length=getattr(spec, "slip_length", 0.0) * thickness,
     )
 
 
@@ -255,7 +272,13 @@ class GroundContact:
     """
 
     def __init__(
-        self, law: GroundContactLaw, mesh: Any, *, vertical: int, ground_height: float = 0.0
+        self,
+        law: GroundContactLaw,
+        mesh: Any,
+        *,
+        vertical: int,
+        ground_height: float = 0.0,
+        time_step: Any = None,
     ) -> None:
         gdim = mesh.geometry.dim
         if not 0 <= vertical < gdim:
@@ -269,11 +292,20 @@ class GroundContact:
         self.friction = fem.Constant(mesh, np.float64(law.friction))
         self.regularization_velocity = fem.Constant(mesh, np.float64(law.regularization_velocity))
         self.ground_height = fem.Constant(mesh, np.float64(ground_height))
+        self.slip_length = fem.Constant(mesh, np.float64(law.slip_length))
+        self.time_step = time_step  # a fem.Constant Δt (s), or None: no ℓ/Δt term
 
     def update(self, law: GroundContactLaw) -> None:
         """Set new constants in place (compiled forms stay valid)."""
         self.law = law
-        for name in ("stiffness", "onset", "damping", "friction", "regularization_velocity"):
+        for name in (
+            "stiffness",
+            "onset",
+            "damping",
+            "friction",
+            "regularization_velocity",
+            "slip_length",
+        ):
             constant: Any = getattr(self, name)
             constant.value = getattr(law, name)
 
@@ -294,7 +326,10 @@ class GroundContact:
         e_v = ufl.as_vector([1.0 if i == self.vertical else 0.0 for i in range(self.gdim)])
         p_n = self.pressure(x, v)
         v_t = v - v[self.vertical] * e_v
-        speed = ufl.sqrt(ufl.dot(v_t, v_t) + self.regularization_velocity**2)
+        eps2 = self.regularization_velocity**2
+        if self.time_step is not None:
+            eps2 = eps2 + (self.slip_length / self.time_step) ** 2
+        speed = ufl.sqrt(ufl.dot(v_t, v_t) + eps2)
         return p_n * e_v - self.friction * p_n * v_t / speed
 
     def work(self, x: Any, v: Any, w: Any, ds: Any) -> Any:

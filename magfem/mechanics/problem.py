@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from magfem import material
@@ -98,6 +99,8 @@ class MembraneProblem:
         field: the bound field model.
         self_contact: arm–arm contact (``[contact] self_contact``) or None; its
             data are refreshed by the time loop (see :mod:`.self_contact`).
+        impact_absorber: :class:`~magfem.mechanics.contact.ImpactAbsorber` applied
+            after every accepted dynamic step with ground contact, else None.
     """
 
     robot: RobotMesh
@@ -114,6 +117,7 @@ class MembraneProblem:
     field: FieldModel
     free_body: bool
     self_contact: SelfContact | None = None
+    impact_absorber: Any = None
 
 
 def _kinematics(case: Case) -> material.Kinematics:
@@ -187,8 +191,8 @@ def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list,
     return bcs, not has_any
 
 
-def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> ufl.Measure:
-    """The boundary measure of ``[contact] surfaces`` (facet groups that may touch the ground).
+def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> tuple[ufl.Measure, Any]:
+    """Measure and local facets of ``[contact] surfaces`` (facet groups that may touch the ground).
 
     ``"all"`` (the default) is the whole boundary. ``bottom`` and ``clamp`` are
     skipped where a robot lacks them (free robots have no clamp); any other
@@ -196,7 +200,10 @@ def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> ufl.Measu
     """
     names = case.contact.surfaces
     if "all" in names:
-        return ds
+        robot.mesh.topology.create_connectivity(
+            robot.mesh.topology.dim - 1, robot.mesh.topology.dim
+        )
+        return ds, dmesh.exterior_facet_indices(robot.mesh.topology)
     tdim = robot.mesh.topology.dim
     tags: list[int] = []
     for i, name in enumerate(names):
@@ -216,7 +223,8 @@ def _contact_measure(case: Case, robot: RobotMesh, ds: ufl.Measure) -> ufl.Measu
         raise CaseError(
             "contact.surfaces", list(names), 'matches no facet group of this robot; use "all"'
         )
-    return ds(tuple(tags))
+    facets = np.unique(np.concatenate([robot.facet_tags.find(tag) for tag in tags]))
+    return ds(tuple(tags)), facets
 
 
 def build_membrane_problem(
@@ -292,10 +300,21 @@ def build_membrane_problem(
             thickness=robot.thickness,
         )
         contact = GroundContact(
-            law, domain, vertical=gdim - 1, ground_height=case.contact.ground_height
+            law,
+            domain,
+            vertical=gdim - 1,
+            ground_height=case.contact.ground_height,
+            time_step=integ.dt if integ.dynamic else None,
         )
 
-    ds_contact = _contact_measure(case, robot, ds)
+    ds_contact, contact_facets = _contact_measure(case, robot, ds)
+    absorber = None
+    if contact is not None and integ.dynamic:
+        from magfem.mechanics.contact import ImpactAbsorber
+
+        absorber = ImpactAbsorber(
+            V, contact_facets, vertical=gdim - 1, ground_height=case.contact.ground_height
+        )
 
     self_contact = None
     if case.contact.self_contact:
@@ -305,17 +324,25 @@ def build_membrane_problem(
             case.contact, robot, u, integ, shear_modulus=mat.shear_modulus, quadrature_degree=q
         )
 
-    def residual(u_: Any, v_: Any, a_: Any, t_: Any) -> ufl.Form:
+    def residual(u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True) -> ufl.Form:
         form = ufl.replace(internal, {placeholder: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
-        if contact is not None:
+        if contact is not None and with_contact:
             form = form - contact.work(X + u_, v_, w, ds_contact)
         if self_contact is not None:
             form = form - self_contact.work(X + u_, w)
         return form
 
-    F_step = integ.discretise(residual)
+    if contact is not None and integ.dynamic:
+        # impacts: the ground acts at the END of the step (x_{n+1}, v_{n+1}), not at the
+        # generalized-α stage point, so a landing column is stopped within the step
+        # (with ImpactAbsorber after it, see contact.py and docs/verification.md)
+        F_step = integ.discretise(
+            lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, with_contact=False)
+        ) - contact.work(X + integ.u, integ.velocity(), w, ds_contact)
+    else:
+        F_step = integ.discretise(residual)
 
     v1 = integ.v0  # after advance(), (u, v0) is the state at t_{n+1}
     Fu = material.deformation_gradient(u)
@@ -345,4 +372,5 @@ def build_membrane_problem(
         field=field,
         free_body=free_body,
         self_contact=self_contact,
+        impact_absorber=absorber,
     )

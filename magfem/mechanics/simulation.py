@@ -21,6 +21,16 @@ Step control:
 
 The initial acceleration is consistent: M a₀ = −R(u₀, v₀, 0; t₀) (a linear
 solve), so gravity and a field switched on at t₀ act from the first step.
+
+Quasi-static runs start from the static equilibrium under gravity at t₀,
+reached by load continuation (:meth:`MembraneSimulation.settle_gravity`):
+gravity is a constant load, so cutting the pseudo-time step cannot make
+the first step smaller, and a thin strip's sag under its own weight is a
+large deflection (200 µm × 9 mm arm, μ = 115 kPa: the small-deflection
+formula gives w/L ≈ 1.2) that Newton from the flat state does not reach
+(DIVERGED_DTOL, then NaN at every step cut: ``cases/active_length.toml``
+before this change). The load factor λ of g goes 0 → 1 in increments that
+halve after a failed solve (state restored) and double after an easy one.
 """
 
 from __future__ import annotations
@@ -249,6 +259,7 @@ class MembraneSimulation:
         integ = self.integrator
         integ.set_state(self.case.time.start)
         if not integ.dynamic:
+            self.settle_gravity()
             return None
         self.field.update(self.case.time.start, side="right", u=self.u)
         integ.t.value = self.case.time.start  # type: ignore[assignment]
@@ -265,6 +276,74 @@ class MembraneSimulation:
             )
         integ.a0.x.array[:] = a.x.array
         return report
+
+    def _gravity_constants(self) -> list[fem.Constant]:
+        """The residual's constants that hold the gravity vector (nonzero g only).
+
+        MembraneProblem does not expose its gravity Constant, so it is found
+        among the step residual's constants by shape and value.
+        """
+        g3 = np.asarray(self.case.environment.gravity, dtype=float)
+        g = g3 if self.gdim == 3 else g3[::2]
+        if not np.any(g):
+            return []
+        return [
+            c
+            for c in self.problem.residual.constants()
+            if isinstance(c, fem.Constant)
+            and np.shape(c.value) == g.shape
+            and np.allclose(c.value, g, rtol=1e-14, atol=0.0)
+        ]
+
+    def settle_gravity(self, *, smallest: float = 1.0 / 1024) -> int:
+        """Quasi-static: solve the equilibrium at t₀ under gravity by load continuation.
+
+        Gravity is scaled by λ from 0 to 1 (module docstring); the field is
+        at its value at t₀. Returns the number of accepted load increments
+        (0 when there is no gravity or the scheme is dynamic).
+
+        Raises:
+            SimulationError: an increment below ``smallest`` failed.
+        """
+        constants = self._gravity_constants()
+        if self.integrator.dynamic or not constants:
+            return 0
+        full = [np.array(c.value, dtype=float) for c in constants]
+        t0 = self.case.time.start
+        self.field.update(t0, side="left", u=self.u)
+        lam, step, accepted = 0.0, 1.0, 0
+        try:
+            while lam < 1.0:
+                trial = min(1.0, lam + step)
+                for c, g in zip(constants, full, strict=True):
+                    c.value = trial * g  # type: ignore[assignment]
+                self.integrator.begin(0.0)  # quasi-static: u = u_n, loads at t₀
+                if self.self_contact is not None:
+                    self.self_contact.refresh_stage()
+                report = self.solver.solve()
+                if report.converged:
+                    self.integrator.advance()  # Δt = 0: u_n = u, time unchanged
+                    lam, accepted = trial, accepted + 1
+                    self.newton_iterations += report.iterations
+                    if report.iterations <= self.case.time.easy_iterations:
+                        step = min(2 * step, 1.0)
+                    continue
+                self.integrator.restore()
+                step /= 2
+                self.log.append(
+                    f"gravity continuation: λ = {lam:.4g} -> {trial:.4g} failed "
+                    f"({report.reason_name}); increment {step:.3g}"
+                )
+                if step < smallest:
+                    raise SimulationError(
+                        f"t = {t0:.6g} s: gravity continuation stalled at λ = {lam:.4g} "
+                        f"({report.reason_name}, ‖R‖ = {report.residual_norm:.3g})"
+                    )
+        finally:
+            for c, g in zip(constants, full, strict=True):
+                c.value = g  # type: ignore[assignment]
+        self.log.append(f"gravity continuation: equilibrium at t₀ in {accepted} increment(s)")
+        return accepted
 
     def _next_step(self, t: float, end: float) -> tuple[float, bool]:
         """Length of the next step from t and whether it lands on a breakpoint."""

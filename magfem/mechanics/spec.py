@@ -252,6 +252,12 @@ class ContactSpec:
     regularization_velocity: float = quantity(
         1e-3, "m/s", gt=0.0, doc="v_ε of the regularised Coulomb friction"
     )
+    slip_length: float = quantity(
+        0.01,
+        "",
+        ge=0.0,
+        doc="ℓ, in thicknesses: friction also regularised by ℓ/Δt (soft stick on tiny steps)",
+    )
     surfaces: tuple[str, ...] = ("all",)
     """Facet groups that may touch the ground (``"all"``: the whole boundary).
 
