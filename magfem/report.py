@@ -82,8 +82,8 @@ STUDIES: tuple[Study, ...] = (
         "Straight beam, quasi-static ramp 0 → 4 mT: angle vs field",
         "cases/active_length.toml",
         ("robot.thickness=100um,200um,500um,1000um",),
-        "final angle at 4 mT per thickness (active length: missing observable)",
-        columns=("final_angle_arm", "max_strain"),
+        "final angle and active length at 4 mT per thickness",
+        columns=("final_angle_arm", "final_active_length_arm", "max_strain"),
     ),
     Study(
         "two-arm-20hz",
@@ -91,7 +91,13 @@ STUDIES: tuple[Study, ...] = (
         "cases/two_arm_20hz.toml",
         ("time.end=50ms",),
         "arm angle history; speed 0° → 90°",
-        columns=("max_angle_arm_right", "max_angle_arm_left", "max_strain"),
+        columns=(
+            "max_angle_arm_right",
+            "max_angle_arm_left",
+            "bending_speed_arm_right",
+            "bending_speed_arm_left",
+            "max_strain",
+        ),
     ),
     Study(
         "two-arm-rect",
@@ -138,8 +144,15 @@ STUDIES: tuple[Study, ...] = (
         "Failure triangles I–III at 45, 85, 180 µm, 4 mT",
         "cases/failure.toml",
         ("robot.type=I,II,III", "robot.thickness=45um,85um,180um"),
-        "collapse vs partial bending (indicators: missing observables)",
-        columns=("max_angle_arm", "max_strain"),
+        "collapse vs partial bending (DESIGN.md indicators)",
+        columns=(
+            "max_angle_arm",
+            "max_tip_normal_arm",
+            "max_folds_arm",
+            "max_spread_arm",
+            "collapse",
+            "partial_bending",
+        ),
     ),
     Study(
         "bow-tie",
@@ -183,6 +196,10 @@ def _case_notes(path: Path) -> dict[str, list[str]]:
 def _fmt(key: str, value: Any) -> str:
     if not isinstance(value, int | float) or (isinstance(value, float) and math.isnan(value)):
         return "–"
+    if "bending_speed" in key:
+        return f"{math.degrees(value) / 1e3:.2f}"
+    if "active_length" in key:
+        return f"{1e3 * value:.2f}"
     if "angle" in key:
         return f"{math.degrees(value):.1f}°"
     return f"{value:.3g}"
@@ -195,6 +212,10 @@ def _unit(key: str) -> str:
         return " (W/m³)"
     if key == "end_time":
         return " (s)"
+    if "bending_speed" in key:
+        return " (°/ms, 0° → 90°)"
+    if "active_length" in key:
+        return " (mm)"
     return ""
 
 
