@@ -83,6 +83,11 @@ def _need(cond: bool, key: str, value: object, problem: str) -> None:
         raise CaseError(key, value, problem)
 
 
+def _check_clamp_length(clamp_length: float, length: float) -> None:
+    """The bonded root strip must leave part of the arm free."""
+    _need(clamp_length < length, "clamp_length", clamp_length, f"must be < length ({length:g} m)")
+
+
 # --- one-arm shapes (root on x = 0, along +x) --------------------------------------------
 
 
@@ -97,12 +102,7 @@ class RectangleShape:
     )
 
     def __post_init__(self) -> None:
-        _need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < length ({self.length:g} m)",
-        )
+        _check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:
@@ -119,12 +119,7 @@ class TrapezoidShape:
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped root strip; 0 = free")
 
     def __post_init__(self) -> None:
-        _need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < length ({self.length:g} m)",
-        )
+        _check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:
@@ -140,12 +135,7 @@ class TriangleShape:
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped root strip; 0 = free")
 
     def __post_init__(self) -> None:
-        _need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < length ({self.length:g} m)",
-        )
+        _check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:
@@ -209,12 +199,7 @@ class TwoArmRectangleShape:
     clamp_length: float = quantity("0.8 mm", "m", ge=0, doc="clamped middle patch; 0 = free")
 
     def __post_init__(self) -> None:
-        _need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < length ({self.length:g} m)",
-        )
+        _check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:
@@ -231,12 +216,7 @@ class BowTieShape:
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped middle patch; 0 = free")
 
     def __post_init__(self) -> None:
-        _need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < length ({self.length:g} m)",
-        )
+        _check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:
