@@ -47,6 +47,8 @@ class Study:
     sets: tuple[str, ...] = ()
     columns: tuple[str, ...] = ()
     notes: str = ""
+    paired: bool = False
+    """Pair the ``params`` lists element-wise (see :func:`magfem.sweep.build_points`)."""
 
 
 _F = "field.sources.0.waveform.frequency"
@@ -57,7 +59,11 @@ STUDIES: tuple[Study, ...] = (
         "one-arm-shapes",
         "One-arm rectangle: max angle in one and two periods vs frequency, 2 mT",
         "cases/one_arm_shapes_rectangle.toml",
-        (f"{_F}=10Hz,20Hz,50Hz,100Hz,200Hz",),
+        (
+            f"{_F}=200Hz,100Hz,50Hz,20Hz,10Hz",
+            "time.end=10ms,20ms,40ms,100ms,200ms",
+            "time.step=0.05ms,0.1ms,0.25ms,0.25ms,0.25ms",
+        ),
         "max angle over 1 and 2 periods vs f; energy and power density",
         columns=(
             "max_angle_1period_arm",
@@ -65,9 +71,12 @@ STUDIES: tuple[Study, ...] = (
             "max_energy_density",
             "power_density",
         ),
-        notes="Trapezoid (cases/one_arm_trapezoid.toml) and triangle "
+        notes="Each frequency runs exactly two periods, with at least 20 steps per half "
+        "period (the square wave's switch is resolved the same way at every f); cheapest "
+        "first. Trapezoid (cases/one_arm_trapezoid.toml) and triangle "
         "(cases/one_arm_shapes_triangle.toml) are 3D solids; their sweeps are the same "
         "command with those cases.",
+        paired=True,
     ),
     Study(
         "one-arm-thickness",
@@ -76,6 +85,20 @@ STUDIES: tuple[Study, ...] = (
         ("robot.thickness=100um,400um,700um,1000um",),
         "max angle over 1 and 2 periods vs thickness",
         columns=("max_angle_1period_arm", "max_angle_2periods_arm", "max_energy_density"),
+    ),
+    Study(
+        "strip-vs-solid",
+        "One-arm rectangle, 2 mT, 50 Hz: 2D strip against the 3D solid",
+        "cases/one_arm_shapes_rectangle.toml",
+        ("mesh.model=strip,solid", "mesh.size=0.1mm,0.5mm"),
+        "difference of the max angle over two periods between the two models",
+        sets=(f"{_F}=50Hz", "time.end=40ms"),
+        columns=("max_angle_1period_arm", "max_angle_2periods_arm", "max_strain"),
+        notes="Same robot, field and time step; the strip is the report resolution "
+        "(0.1 mm P2 quads), the solid a 0.5 mm hexahedral mesh (one layer; its cost grows "
+        "with the width, 3 mm here). The difference measures the plane-strain strip "
+        "assumption plus the solid's coarser mesh, not either alone.",
+        paired=True,
     ),
     Study(
         "active-length",
@@ -103,9 +126,15 @@ STUDIES: tuple[Study, ...] = (
         "two-arm-rect",
         "Two-arm rectangle 6 × 0.8 mm², 45 µm: largest angle per drive",
         "cases/two_arm_rect.toml",
-        (f"{_B}=4mT,9mT,2mT", f"{_F}=80Hz,100Hz,200Hz"),
-        "largest angle at 4 mT/80 Hz, 9 mT/100 Hz, 2 mT/200 Hz (diagonal of the grid)",
-        columns=("max_angle_arm_right", "max_angle_arm_left"),
+        (f"{_B}=4mT,9mT,2mT", f"{_F}=80Hz,100Hz,200Hz", "time.end=25ms,20ms,10ms"),
+        "largest angle at 4 mT/80 Hz, 9 mT/100 Hz, 2 mT/200 Hz",
+        columns=(
+            "max_angle_2periods_arm_right",
+            "max_angle_2periods_arm_left",
+            "max_strain",
+        ),
+        notes="Each drive runs two periods.",
+        paired=True,
     ),
     Study(
         "self-clean",
@@ -225,10 +254,14 @@ def build_report(
     run: bool = False,
     only: Sequence[str] = (),
     jobs: int = 2,
+    retry_failed: bool = False,
     docs: Path = Path("docs"),
     echo: Callable[[str], None] | None = print,
 ) -> Path:
     """Run (``run=True``) or read the studies and write ``docs/scenes.md``.
+
+    ``retry_failed`` reruns points recorded as failed (passed to
+    :func:`magfem.sweep.run_sweep`); ``jobs`` runs that many points at once.
 
     Raises:
         CaseError: an unknown scene id in ``only``.
@@ -268,6 +301,8 @@ def build_report(
                         sweep_dir,
                         base_overrides=list(study.sets),
                         jobs=jobs,
+                        retry_failed=retry_failed,
+                        paired=study.paired,
                         echo=echo,
                     ).records
                 else:
@@ -320,12 +355,18 @@ def _scene_section(
     notes = _case_notes(case)
     params = " ".join(f"--param {p}" for p in study.params)
     sets = " ".join(f"--set {s}" for s in study.sets)
+    command = (
+        f"`magfem report --run --only {study.ident}` (its lists are paired element-wise, "
+        f"not crossed: {params} {sets})".replace("  ", " ").replace(" )", ")")
+        if study.paired
+        else f"`magfem sweep {study.case} {params} {sets}`".replace(" `", "`")
+    )
     out = [
         f"## {study.ident}",
         "",
         f"**{study.title}.** Observe: {study.observe}.",
         "",
-        f"- case: `{study.case}`; study: `magfem sweep {study.case} {params} {sets}`".rstrip(),
+        f"- case: `{study.case}`; study: {command}",
         f"- model: {' '.join(notes['model']) or 'see the case file'}",
     ]
     if notes["missing"]:

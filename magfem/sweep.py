@@ -14,7 +14,9 @@
   700, 1000 µm.
 
 The points are the Cartesian product of all ``--param`` lists, in the order
-given (the last parameter varies fastest). Each point runs as its own
+given (the last parameter varies fastest); ``run_sweep(..., paired=True)``
+pairs the lists element-wise instead (a frequency with its two-period end
+time; drive amplitudes with their frequencies). Each point runs as its own
 process ``python -m magfem run CASE --out DIR/points/<id> --set ...`` (``mpirun
 -n K`` in front with ``--np K``), at most ``--jobs`` at a time.
 
@@ -60,7 +62,7 @@ import sys
 import threading
 import time
 import tomllib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -145,13 +147,32 @@ def _fingerprint(case_path: Path, base_overrides: Sequence[str]) -> str:
     return h.hexdigest()
 
 
-def build_points(params: Sequence[tuple[str, list[str]]], fingerprint: str) -> list[Point]:
-    """Cartesian product of the parameter lists (last varies fastest), with stable ids."""
+def build_points(
+    params: Sequence[tuple[str, list[str]]], fingerprint: str, *, paired: bool = False
+) -> list[Point]:
+    """Points with stable ids: the Cartesian product of the parameter lists (last varies
+    fastest), or with ``paired=True`` their element-wise pairing (lists of equal length).
+
+    Raises:
+        CaseError: a NAME given twice, or paired lists of different lengths.
+    """
     names = [n for n, _ in params]
     if len(set(names)) != len(names):
         raise CaseError("--param", ", ".join(names), "each NAME may be given once")
+    lengths = {len(v) for _, v in params}
+    if paired and len(lengths) > 1:
+        raise CaseError(
+            "--param",
+            ", ".join(f"{n}: {len(v)} values" for n, v in params),
+            "paired parameters need lists of the same length",
+        )
+    combos: Iterable[tuple[str, ...]] = (
+        zip(*(v for _, v in params), strict=True)
+        if paired
+        else itertools.product(*(v for _, v in params))
+    )
     points = []
-    for i, combo in enumerate(itertools.product(*(v for _, v in params))):
+    for i, combo in enumerate(combos):
         p = dict(zip(names, combo, strict=True))
         digest = hashlib.sha256((fingerprint + json.dumps(p, sort_keys=True)).encode())
         points.append(Point(i, p, f"p{i:04d}_{digest.hexdigest()[:10]}"))
@@ -285,6 +306,7 @@ def run_sweep(
     jobs: int = 1,
     ranks: int = 1,
     retry_failed: bool = False,
+    paired: bool = False,
     echo: Callable[[str], None] | None = print,
 ) -> SweepResult:
     """Run (or resume) a sweep; serial driver, each point a separate process.
@@ -296,6 +318,8 @@ def run_sweep(
         base_overrides: ``--set`` items applied to every point.
         jobs: points run at the same time. ranks: MPI ranks per point (mpirun -n).
         retry_failed: rerun points recorded as failed.
+        paired: pair the ``--param`` lists element-wise (equal lengths) instead of
+            taking their Cartesian product, e.g. a frequency with its two-period end time.
         echo: progress printer (None: silent).
 
     Raises:
@@ -314,7 +338,7 @@ def run_sweep(
     load_case(case_path, base_overrides)  # file, syntax and base overrides
     parsed = [parse_param(p) for p in params]
     fingerprint = _fingerprint(case_path, base_overrides)
-    points = build_points(parsed, fingerprint)
+    points = build_points(parsed, fingerprint, paired=paired)
     for pt in points:
         load_case(case_path, [*base_overrides, *pt.overrides()])
     out = Path(outdir)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import subprocess
@@ -14,7 +15,7 @@ import tomli_w
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.sweep import parse_param
+from magfem.sweep import build_points, parse_param
 
 # A 4 mm strip arm, 4 x 0.5 mm P2 quads, a few steps: ~3 s per point with a warm JIT cache.
 CASE = {
@@ -66,6 +67,22 @@ def _case_file(directory):
 )
 def test_parse_param(text, values):
     assert parse_param(text)[1] == values
+
+
+def test_paired_points_zip_the_lists_and_keep_the_crossed_ids():
+    params = [("f", ["10Hz", "20Hz"]), ("time.end", ["200ms", "100ms"])]
+    paired = build_points(params, "fp", paired=True)
+    crossed = build_points(params, "fp")
+    assert [p.params for p in paired] == [
+        {"f": "10Hz", "time.end": "200ms"},
+        {"f": "20Hz", "time.end": "100ms"},
+    ]
+    assert len(crossed) == 4
+    # the hash part of a point's id depends on the fingerprint and its parameters only
+    ids = {json.dumps(p.params, sort_keys=True): p.ident for p in crossed}
+    assert all(ids[json.dumps(p.params, sort_keys=True)].endswith(p.ident[6:]) for p in paired)
+    with pytest.raises(CaseError, match="same length"):
+        build_points([("f", ["10Hz", "20Hz"]), ("time.end", ["1ms"])], "fp", paired=True)
 
 
 @pytest.mark.parametrize(
