@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import signal
 import subprocess
@@ -147,3 +148,24 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     starts = (out / "sweep.log").read_text().count(" start ")
     assert main(cmd[3:]) == 0
     assert (out / "sweep.log").read_text().count(" start ") == starts
+
+
+def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, repo, monkeypatch):
+    """``build_report`` without running: a finished point is tabulated in SI-derived units
+    (angle in degrees, speed in deg/ms), every other scene is listed as missing."""
+    from magfem.report import STUDIES, build_report
+
+    monkeypatch.chdir(repo)  # the studies name their case files relative to the repository
+    point = tmp_path / "out" / "two-arm-20hz" / "points" / "p0000_x"
+    point.mkdir(parents=True)
+    summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
+    record = {"params": {"time.end": "50ms"}, "status": "done", "wall_s": 3.0}
+    (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
+    (tmp_path / "out" / "two-arm-20hz" / "summary.csv").write_text("point\n")
+    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
+    # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
+    assert "| 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
+    assert page.count("**Prediction missing:** not run yet") == len(STUDIES) - 1
+    with pytest.raises(CaseError, match="--only"):
+        build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
