@@ -101,6 +101,8 @@ class MembraneProblem:
             data are refreshed by the time loop (see :mod:`.self_contact`).
         impact_absorber: :class:`~magfem.mechanics.contact.ImpactAbsorber` applied
             after every accepted dynamic step with ground contact, else None.
+        gravity: the gravity vector Constant g (m/s², gdim components), scaled in
+            place by quasi-static load continuation.
     """
 
     robot: RobotMesh
@@ -118,6 +120,7 @@ class MembraneProblem:
     free_body: bool
     self_contact: SelfContact | None = None
     impact_absorber: Any = None
+    gravity: fem.Constant | None = None
 
 
 def _kinematics(case: Case) -> material.Kinematics:
@@ -373,4 +376,5 @@ def build_membrane_problem(
         free_body=free_body,
         self_contact=self_contact,
         impact_absorber=absorber,
+        gravity=g,
     )

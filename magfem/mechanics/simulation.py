@@ -278,22 +278,9 @@ class MembraneSimulation:
         return report
 
     def _gravity_constants(self) -> list[fem.Constant]:
-        """The residual's constants that hold the gravity vector (nonzero g only).
-
-        MembraneProblem does not expose its gravity Constant, so it is found
-        among the step residual's constants by shape and value.
-        """
-        g3 = np.asarray(self.case.environment.gravity, dtype=float)
-        g = g3 if self.gdim == 3 else g3[::2]
-        if not np.any(g):
-            return []
-        return [
-            c
-            for c in self.problem.residual.constants()
-            if isinstance(c, fem.Constant)
-            and np.shape(c.value) == g.shape
-            and np.allclose(c.value, g, rtol=1e-14, atol=0.0)
-        ]
+        """The residual's gravity Constant, or [] when g = 0."""
+        g = self.problem.gravity
+        return [] if g is None or not np.any(g.value) else [g]
 
     def settle_gravity(self, *, smallest: float = 1.0 / 1024) -> int:
         """Quasi-static: solve the equilibrium at t₀ under gravity by load continuation.
