@@ -66,6 +66,7 @@ STUDIES: tuple[Study, ...] = (
         ),
         "max angle over 1 and 2 periods vs f; energy and power density",
         columns=(
+            "max_angle_halfperiod_arm",
             "max_angle_1period_arm",
             "max_angle_2periods_arm",
             "max_energy_density",
@@ -84,7 +85,12 @@ STUDIES: tuple[Study, ...] = (
         "cases/one_arm_shapes_rectangle.toml",
         ("robot.thickness=100um,400um,700um,1000um",),
         "max angle over 1 and 2 periods vs thickness",
-        columns=("max_angle_1period_arm", "max_angle_2periods_arm", "max_energy_density"),
+        columns=(
+            "max_angle_halfperiod_arm",
+            "max_angle_1period_arm",
+            "max_angle_2periods_arm",
+            "max_energy_density",
+        ),
     ),
     Study(
         "strip-vs-solid",
@@ -93,7 +99,12 @@ STUDIES: tuple[Study, ...] = (
         ("mesh.model=strip,solid", "mesh.size=0.1mm,0.5mm"),
         "difference of the max angle over two periods between the two models",
         sets=(f"{_F}=50Hz", "time.end=40ms"),
-        columns=("max_angle_1period_arm", "max_angle_2periods_arm", "max_strain"),
+        columns=(
+            "max_angle_halfperiod_arm",
+            "max_angle_1period_arm",
+            "max_angle_2periods_arm",
+            "max_strain",
+        ),
         notes="Same robot, field and time step; the strip is the report resolution "
         "(0.1 mm P2 quads), the solid a 0.5 mm hexahedral mesh (one layer; its cost grows "
         "with the width, 3 mm here). The difference measures the plane-strain strip "
@@ -114,6 +125,9 @@ STUDIES: tuple[Study, ...] = (
         "cases/two_arm_20hz.toml",
         ("time.end=50ms",),
         "arm angle history; speed 0° → 90°",
+        notes="The bending speed is 90° over the time from the last instant the angle was ≤ 0° "
+        "to the first 90° after it (observers.py). Angles beyond 180° are the arm curling over "
+        "after the field reversal (self-contact of an arm with itself is not modelled).",
         columns=(
             "max_angle_arm_right",
             "max_angle_arm_left",
@@ -129,6 +143,7 @@ STUDIES: tuple[Study, ...] = (
         (f"{_B}=4mT,9mT,2mT", f"{_F}=80Hz,100Hz,200Hz", "time.end=25ms,20ms,10ms"),
         "largest angle at 4 mT/80 Hz, 9 mT/100 Hz, 2 mT/200 Hz",
         columns=(
+            "max_angle_halfperiod_arm_right",
             "max_angle_2periods_arm_right",
             "max_angle_2periods_arm_left",
             "max_strain",
@@ -142,7 +157,16 @@ STUDIES: tuple[Study, ...] = (
         "cases/self_clean.toml",
         ("time.end=66.7ms",),
         "shaking amplitude = max angle over two periods",
-        columns=("max_angle_1period_arm", "max_angle_2periods_arm"),
+        columns=(
+            "max_angle_halfperiod_arm",
+            "max_angle_1period_arm",
+            "max_angle_2periods_arm",
+            "max_strain",
+            "max_folds_arm",
+        ),
+        notes="Angles beyond 180° are the arm curling over (the field reversal at the half "
+        "period drives a lifted arm further round, towards the new equilibrium); an arm "
+        "touching itself is not modelled (self-contact acts between arms only).",
     ),
     Study(
         "one-arm-triangle",
@@ -266,7 +290,7 @@ def build_report(
     Raises:
         CaseError: an unknown scene id in ``only``.
     """
-    from magfem.sweep import run_sweep
+    from magfem.sweep import run_sweep, summarize_history
 
     known = {s.ident for s in STUDIES}
     for ident in only:
@@ -292,7 +316,7 @@ def build_report(
         selected = not only or study.ident in only
         records: list[dict[str, Any]] = []
         reason = ""
-        if (run and selected) or (sweep_dir / "summary.csv").is_file():
+        if (run and selected) or (sweep_dir / "points").is_dir():
             try:
                 if run and selected:
                     records = run_sweep(
@@ -306,11 +330,15 @@ def build_report(
                         echo=echo,
                     ).records
                 else:
-                    records = _read_only(sweep_dir)
+                    records = _read_only(study, sweep_dir)
             except CaseError as err:
                 reason = f"case error: {err}"
         else:
             reason = f"not run yet (`magfem report --run --only {study.ident}`)"
+        for rec in records:  # summaries from the histories: new scalars for old runs too
+            point = sweep_dir / "points" / str(rec.get("point", ""))
+            if (point / "history.csv").is_file():
+                rec["summary"] = summarize_history(point)
         done = [r for r in records if r.get("status") == "done"]
         failed = [r for r in records if r.get("status") == "failed"]
         wall = sum(float(r.get("wall_s", 0.0)) for r in records)
@@ -330,14 +358,25 @@ def build_report(
     return path
 
 
-def _read_only(sweep_dir: Path) -> list[dict[str, Any]]:
-    """Records of a finished sweep directory (point.json files), without running."""
+def _read_only(study: Study, sweep_dir: Path) -> list[dict[str, Any]]:
+    """The study's points as they stand on disk, without running: finished points from
+    their ``point.json`` (same parameters and case fingerprint), the others ``missing``."""
     import json
 
-    records = []
-    for pj in sorted((sweep_dir / "points").glob("*/point.json")):
-        rec = json.loads(pj.read_text(encoding="utf-8"))
-        records.append({"point": pj.parent.name} | rec)
+    from magfem.sweep import build_points, fingerprint, parse_param
+
+    points = build_points(
+        [parse_param(p) for p in study.params],
+        fingerprint(Path(study.case), study.sets),
+        paired=study.paired,
+    )
+    records: list[dict[str, Any]] = []
+    for pt in points:
+        record: dict[str, Any] = {"status": "missing"}
+        pj = sweep_dir / "points" / pt.ident / "point.json"
+        if pj.is_file():
+            record = json.loads(pj.read_text(encoding="utf-8"))
+        records.append({"point": pt.ident, "params": pt.params} | record)
     return records
 
 

@@ -37,9 +37,11 @@ SI, status, wall time, and the point's summary scalars) and
 first parameter, one line per combination of the others).
 
 Summary scalars, computed from each run's ``history.csv`` (definitions in
-DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_1period_<arm>``
-and ``max_angle_2periods_<arm>`` (max |θ| over [t₀, t₀ + 1/f] and
-[t₀, t₀ + 2/f], f the first periodic source's frequency), ``final_angle_<arm>``;
+DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_halfperiod_<arm>``,
+``max_angle_1period_<arm>`` and ``max_angle_2periods_<arm>`` (max |θ| over
+[t₀, t₀ + n/f], n = 1/2, 1, 2, f the first periodic source's frequency: the
+first half period is the lift under the first field sign, before any reversal),
+``final_angle_<arm>``;
 ``max_strain``, ``max_energy_density`` (J/m³, ρE = 3με²/2),
 ``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step); the midline
 and speed entries of :func:`magfem.mechanics.observers.summarize_midline`
@@ -76,6 +78,7 @@ __all__ = [
     "Point",
     "SweepResult",
     "build_points",
+    "fingerprint",
     "parse_param",
     "run_sweep",
     "summarize_history",
@@ -140,7 +143,8 @@ class Point:
         return [f"{k}={v}" for k, v in self.params.items()]
 
 
-def _fingerprint(case_path: Path, base_overrides: Sequence[str]) -> str:
+def fingerprint(case_path: Path, base_overrides: Sequence[str]) -> str:
+    """SHA-256 (hex) of the case file text and the ``--set`` overrides: a point's base case."""
     h = hashlib.sha256(case_path.read_bytes())
     for item in base_overrides:
         h.update(b"\0" + item.encode())
@@ -229,7 +233,7 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
         out[f"max_angle_{arm}"] = float(np.nanmax(np.abs(values)))
         out[f"final_angle_{arm}"] = float(values[-1])
         if freq:
-            for n, label in ((1, "1period"), (2, "2periods")):
+            for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
                 mask = (t >= t0 - 1e-12) & (t <= t0 + n / freq + 1e-12)
                 covered = t[-1] >= t0 + n / freq - 1e-9
                 out[f"max_angle_{label}_{arm}"] = (
@@ -337,8 +341,8 @@ def run_sweep(
         raise CaseError("--param", "(none)", "give at least one --param " + _SYNTAX)
     load_case(case_path, base_overrides)  # file, syntax and base overrides
     parsed = [parse_param(p) for p in params]
-    fingerprint = _fingerprint(case_path, base_overrides)
-    points = build_points(parsed, fingerprint, paired=paired)
+    fprint = fingerprint(case_path, base_overrides)
+    points = build_points(parsed, fprint, paired=paired)
     for pt in points:
         load_case(case_path, [*base_overrides, *pt.overrides()])
     out = Path(outdir)
@@ -352,7 +356,7 @@ def run_sweep(
         done = (
             rec is not None
             and rec.get("params") == pt.params
-            and rec.get("fingerprint") == fingerprint
+            and rec.get("fingerprint") == fprint
             and (rec.get("status") == "done" or not retry_failed)
         )
         if done:
@@ -388,7 +392,7 @@ def run_sweep(
             return
         record = {
             "params": pt.params,
-            "fingerprint": fingerprint,
+            "fingerprint": fprint,
             "status": "done" if rc == 0 else "failed",
             "returncode": rc,
             "wall_s": wall,
