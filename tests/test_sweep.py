@@ -10,13 +10,14 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import tomli_w
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.sweep import build_points, parse_param
+from magfem.sweep import build_points, fingerprint, parse_param
 
 # A 4 mm strip arm, 4 x 0.5 mm P2 quads, a few steps: ~3 s per point with a warm JIT cache.
 CASE = {
@@ -156,12 +157,14 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
     from magfem.report import STUDIES, build_report
 
     monkeypatch.chdir(repo)  # the studies name their case files relative to the repository
-    point = tmp_path / "out" / "two-arm-20hz" / "points" / "p0000_x"
+    study = next(s for s in STUDIES if s.ident == "two-arm-20hz")
+    fprint = fingerprint(Path(study.case), study.sets)
+    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
+    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
     point.mkdir(parents=True)
     summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
-    record = {"params": {"time.end": "50ms"}, "status": "done", "wall_s": 3.0}
+    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
     (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
-    (tmp_path / "out" / "two-arm-20hz" / "summary.csv").write_text("point\n")
     page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
     assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
     # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
