@@ -49,10 +49,16 @@ class Study:
     notes: str = ""
     paired: bool = False
     """Pair the ``params`` lists element-wise (see :func:`magfem.sweep.build_points`)."""
+    pending: str = ""
+    """Why the study may not have run yet (its cost), shown while its prediction is missing."""
 
 
 _F = "field.sources.0.waveform.frequency"
 _B = "field.sources.0.flux_density"
+_SOLID_PENDING = (
+    "a 3D solid at report resolution, far costlier per step than the strip studies, which "
+    "run first (cheapest first, one run at a time on the 2-core machine)"
+)
 
 STUDIES: tuple[Study, ...] = (
     Study(
@@ -175,6 +181,7 @@ STUDIES: tuple[Study, ...] = (
         ("time.end=16.7ms",),
         "angle history over one period",
         columns=("max_angle_1period_arm",),
+        pending=_SOLID_PENDING,
     ),
     Study(
         "five-arm",
@@ -183,6 +190,7 @@ STUDIES: tuple[Study, ...] = (
         ("time.end=20ms",),
         "rotation of the lifted arm (reaches 90°?)",
         columns=("max_angle_arm_1", "final_angle_arm_1"),
+        pending=_SOLID_PENDING,
     ),
     Study(
         "flower",
@@ -191,6 +199,7 @@ STUDIES: tuple[Study, ...] = (
         ("time.end=25ms",),
         "closing and reopening times (from the petal angles)",
         columns=("max_angle_petal_1", "max_angle_petal_6"),
+        pending=_SOLID_PENDING,
     ),
     Study(
         "failure",
@@ -206,6 +215,7 @@ STUDIES: tuple[Study, ...] = (
             "collapse",
             "partial_bending",
         ),
+        pending=_SOLID_PENDING,
     ),
     Study(
         "bow-tie",
@@ -214,6 +224,7 @@ STUDIES: tuple[Study, ...] = (
         (f"{_F}=10Hz,20Hz,30Hz",),
         "arm sequence; arms touching (needs self-contact: missing)",
         columns=("max_angle_arm_left", "max_angle_arm_right"),
+        pending=_SOLID_PENDING,
     ),
 )
 """The scene studies, cheapest first."""
@@ -305,7 +316,10 @@ def build_report(
         "`magfem report --run` (resumes finished runs; `--only ID` for one scene). "
         "These are **predictions** of the cases in `cases/`, not fits: no parameter was "
         "tuned to a measured number. Assumptions are listed per scene (the `# ASSUMED` "
-        "lines of each case file). Angles are the unwrapped tip bending angle (DESIGN.md).",
+        "lines of each case file). Angles are the unwrapped tip bending angle (DESIGN.md). "
+        "Wall times are those of each run process (serial, one process per point) on the "
+        "machine that ran it, which may have been shared with other work: they are a cost "
+        "guide, not a benchmark.",
         "",
         "| scene | status | runs | wall time (s) |",
         "| --- | --- | --- | --- |",
@@ -334,7 +348,9 @@ def build_report(
             except CaseError as err:
                 reason = f"case error: {err}"
         else:
-            reason = f"not run yet (`magfem report --run --only {study.ident}`)"
+            reason = f"not run yet (`magfem report --run --only {study.ident}`)" + (
+                f": {study.pending}" if study.pending else ""
+            )
         for rec in records:  # summaries from the histories: new scalars for old runs too
             point = sweep_dir / "points" / str(rec.get("point", ""))
             if (point / "history.csv").is_file():
