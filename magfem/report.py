@@ -301,7 +301,7 @@ def build_report(
     Raises:
         CaseError: an unknown scene id in ``only``.
     """
-    from magfem.sweep import run_sweep, summarize_history
+    from magfem.sweep import parse_param, plot_sweep, run_sweep, summarize_history, write_summary
 
     known = {s.ident for s in STUDIES}
     for ident in only:
@@ -355,6 +355,10 @@ def build_report(
             point = sweep_dir / "points" / str(rec.get("point", ""))
             if (point / "history.csv").is_file():
                 rec["summary"] = summarize_history(point)
+        if records:  # the table and plot of the refreshed summaries
+            names = [parse_param(p)[0] for p in study.params]
+            write_summary(records, names, sweep_dir)
+            plot_sweep(records, names, sweep_dir / "sweep.png", paired=study.paired)
         done = [r for r in records if r.get("status") == "done"]
         failed = [r for r in records if r.get("status") == "failed"]
         wall = sum(float(r.get("wall_s", 0.0)) for r in records)

@@ -80,8 +80,10 @@ __all__ = [
     "build_points",
     "fingerprint",
     "parse_param",
+    "plot_sweep",
     "run_sweep",
     "summarize_history",
+    "write_summary",
 ]
 
 _RANGE = re.compile(
@@ -422,7 +424,7 @@ def run_sweep(
             | ({"status": "missing"} if rec is None else rec)
         )
     result.paths["csv"] = write_summary(result.records, [n for n, _ in parsed], out)
-    png = plot_sweep(result.records, [n for n, _ in parsed], out / "sweep.png")
+    png = plot_sweep(result.records, [n for n, _ in parsed], out / "sweep.png", paired=paired)
     if png is not None:
         result.paths["png"] = png
     log(f"wrote {result.paths['csv']}" + (f" and {png}" if png else ""))
@@ -467,8 +469,11 @@ def write_summary(records: list[dict[str, Any]], names: list[str], out: Path) ->
     return path
 
 
-def plot_sweep(records: list[dict[str, Any]], names: list[str], path: Path) -> Path | None:
-    """Max angle over one and two periods (deg) against the first parameter (PNG)."""
+def plot_sweep(
+    records: list[dict[str, Any]], names: list[str], path: Path, *, paired: bool = False
+) -> Path | None:
+    """Max angle over one and two periods (deg) against the first parameter (PNG): one
+    line per combination of the other parameters, or a single line when ``paired``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -482,7 +487,7 @@ def plot_sweep(records: list[dict[str, Any]], names: list[str], path: Path) -> P
     keys = [k for k in keys if "period" in k] or keys
     if not done or not keys:
         return None
-    x_name, others = names[0], names[1:]
+    x_name, others = names[0], ([] if paired else names[1:])
     groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for r in done:
         groups.setdefault(tuple(r["params"][n] for n in others), []).append(r)
