@@ -9,11 +9,19 @@ plane-stress strip (3μ), 3D solid of a narrow arm (0.25 mm wide ≈ 3 h:
 beam modulus E; a 2 mm wide 3D arm sits between beam and plate, see
 docs/verification.md).
 
+Part 1b (``--rigid``), the rod model's own clamp: the whole root block
+(x <= 1 mm) fixed through ``fixed_point``/``fixed_radius`` (a 1 m ball whose
+surface crosses the arm 1 µm past the block), K = μ (ν = 1/8) so the Poisson
+contraction the rigid face forbids is a ν² = 1.6 % effect. Plane-strain strip
+(0.1-0.4 mT; the bonded patch at K = μ for contrast) and the narrow 3D arm
+(0.1, 0.2 mT), with the discretisation part of the 3D error (vs the finest level).
+
 Part 2, first bending frequency after a modal push (the set-up of
 tests/test_verification_frequency.py), ρ∞ = 1, Δt = T/80.
 
     .venv/bin/python benchmarks/elastica_convergence.py            # everything (~10 min)
     .venv/bin/python benchmarks/elastica_convergence.py --quick    # strips only
+    .venv/bin/python benchmarks/elastica_convergence.py --rigid    # part 1b only (~5 min)
 """
 
 from __future__ import annotations
@@ -68,10 +76,34 @@ def chord(load: float) -> float:
     return math.atan2(y[1] - y[0], x[1] - x[0])
 
 
-def static_row(comm: Any, model: str, size: float, width: float, plane: str, modulus: float):
+def rigid_root_block(width: float) -> dict[str, Any]:
+    """``[environment]`` fixing every node of x <= CLAMP (tests/test_verification_elastica.py)."""
+    radius = 1.0
+    return {
+        "gravity": [0, 0, 0],
+        "clamped": [],
+        "fixed_point": [CLAMP + 1e-6 - radius, width / 2, H / 2],
+        "fixed_radius": radius,
+    }
+
+
+def static_row(
+    comm: Any,
+    model: str,
+    size: float,
+    width: float,
+    plane: str,
+    modulus: float,
+    *,
+    bulk: float = 100 * MU,
+    environment: dict[str, Any] | None = None,
+    b_max: float = B_MAX,
+    fractions: tuple[float, ...] = FRACTIONS,
+    step: float = 0.25,
+):
     source = {
         "kind": "uniform",
-        "flux_density": B_MAX,
+        "flux_density": b_max,
         "direction": [-1, 0, 0],
         "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
     }
@@ -81,16 +113,24 @@ def static_row(comm: Any, model: str, size: float, width: float, plane: str, mod
         width,
         plane,
         field={"sources": [source]},
-        time={"scheme": "quasi_static", "end": 1.0, "step": 0.25},
+        time={"scheme": "quasi_static", "end": 1.0, "step": step},
+        material={
+            "shear_modulus": MU,
+            "bulk_modulus": bulk,
+            "density": RHO,
+            "remanence": M,
+            "plane": plane,
+        },
+        environment=environment or {"gravity": [0, 0, 0]},
     )
     t0 = time.perf_counter()
     sim = MembraneSimulation(case, comm)
     res = sim.run(None, progress=False)
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     t, angle = res.history["time"], res.history["angle_arm"]
-    rows = [int(np.argmin(np.abs(t - f))) for f in FRACTIONS]  # adaptive steps: nearest
+    rows = [int(np.argmin(np.abs(t - f))) for f in fractions]  # adaptive steps: nearest
     fe = angle[rows]
-    exact = np.array([chord(ref.elastica_load(M, f * B_MAX, FREE, H, modulus)) for f in t[rows]])
+    exact = np.array([chord(ref.elastica_load(M, f * b_max, FREE, H, modulus)) for f in t[rows]])
     dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
     return np.degrees(fe), np.degrees(fe - exact), np.degrees(exact), dofs, wall
 
@@ -132,11 +172,80 @@ def frequency_row(comm: Any, model: str, size: float, width: float, plane: str, 
     return f, dofs, wall
 
 
+def rigid_tables(comm: Any) -> None:
+    """Part 1b: rigid root block, K = μ; strip and narrow 3D arm vs the elastica."""
+    soft = MU
+    E = ref.young_modulus(MU, soft)
+    plate = material.plane_strain_modulus(MU, soft)
+    head = f"{'model':30} {'size mm':>7} {'dofs':>6} {'wall s':>6}  FE angle° (error°) per load"
+    lines = [
+        "Rigid root block, K = mu (nu = 1/8), vs the hard-magnetic elastica; strips at "
+        "B = 0.1, 0.2, 0.3, 0.4 mT, solid at 0.1, 0.2 mT",
+        head,
+    ]
+    runs: list[tuple[str, str, float, float, Any, list[float], dict[str, Any]]] = [
+        (
+            "strip, rigid block",
+            "strip",
+            2e-3,
+            plate,
+            rigid_root_block(2e-3),
+            [0.5e-3, 0.25e-3, 0.125e-3, 0.0625e-3],
+            {},
+        ),
+        (
+            "strip, bonded patch",
+            "strip",
+            2e-3,
+            plate,
+            None,
+            [0.5e-3, 0.25e-3, 0.125e-3, 0.0625e-3],
+            {},
+        ),
+        (
+            "solid 0.25 mm wide, rigid",
+            "solid",
+            0.25e-3,
+            E,
+            rigid_root_block(0.25e-3),
+            [0.25e-3, 0.125e-3, 0.0625e-3],
+            {"b_max": 0.2e-3, "fractions": (0.5, 1.0), "step": 0.125},
+        ),
+    ]
+    solid_errors = []
+    for title, model, width, modulus, env, sizes, extra in runs:
+        for size in sizes:
+            fe, err, exact, dofs, wall = static_row(
+                comm, model, size, width, "strain", modulus, bulk=soft, environment=env, **extra
+            )
+            cells = "  ".join(f"{a:7.3f} ({e:+.4f})" for a, e in zip(fe, err, strict=True))
+            lines.append(f"{title[:30]:30} {size * 1e3:7.4g} {dofs:6d} {wall:6.1f}  {cells}")
+            rank0_print(lines[-1])
+            if model == "solid":
+                solid_errors.append(err)
+        lines.append(
+            f"{'':30} {'elastica':>7} {'':6} {'':6}  " + "  ".join(f"{a:7.3f}" for a in exact)
+        )
+    e = np.array(solid_errors)  # (3 levels, loads), degrees, halving size
+    # the finest level stands in for the converged 3D solution: e - e[-1] is the
+    # discretisation part of each error, e[-1] the 3D continuum's offset from the rod model
+    lines.append(
+        "3D: error minus the finest level's, per level: "
+        + ";  ".join(", ".join(f"{x:+.4f}" for x in row) for row in e[:-1] - e[-1])
+        + f"  (finest level: {', '.join(f'{x:+.4f}' for x in e[-1])}°)"
+    )
+    rank0_print("\n" + "\n".join(lines))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="strips only")
+    parser.add_argument("--rigid", action="store_true", help="rigid root block tables only")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
+    if args.rigid:
+        rigid_tables(comm)
+        return
     E, nu = ref.young_modulus(MU, 100 * MU), ref.poisson_ratio(MU, 100 * MU)
     plate = material.plane_strain_modulus(MU, 100 * MU)
     configs: list[tuple[str, str, float, str, float, list[float]]] = [
