@@ -51,6 +51,9 @@ class Study:
     """Pair the ``params`` lists element-wise (see :func:`magfem.sweep.build_points`)."""
     pending: str = ""
     """Why the study may not have run yet (its cost), shown while its prediction is missing."""
+    compare: tuple[str, ...] = ()
+    """Summary scalars whose difference (last point − first, absolute and relative to the
+    first) is stated under the table when the first and last points are done."""
 
 
 _F = "field.sources.0.waveform.frequency"
@@ -116,6 +119,7 @@ STUDIES: tuple[Study, ...] = (
         "plane-strain strip assumption plus the solid's coarser in-plane mesh, not either "
         "alone.",
         paired=True,
+        compare=("max_angle_halfperiod_arm", "max_angle_1period_arm", "max_strain"),
     ),
     Study(
         "active-length",
@@ -467,6 +471,16 @@ def _scene_section(
                 + " |"
             )
         out.append("")
+    if study.compare and len(records) > 1 and records[0] in done and records[-1] in done:
+        first, last = records[0], records[-1]
+        label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
+        parts = []
+        for key in study.compare:
+            a, b = first["summary"].get(key), last["summary"].get(key)
+            if isinstance(a, float) and isinstance(b, float) and a != 0.0:
+                diff = f"{math.degrees(b - a):+.1f}°" if "angle" in key else f"{b - a:+.3g}"
+                parts.append(f"{key} {diff} ({100 * (b - a) / abs(a):+.1f} %)")
+        out += [f"**Difference** ({label}): " + "; ".join(parts) + ".", ""]
     if failed:
         out.append(
             f"**{len(failed)} run(s) failed** (solver); the table shows what they reached "
