@@ -492,9 +492,15 @@ def plot_sweep(
     for r in done:
         groups.setdefault(tuple(r["params"][n] for n in others), []).append(r)
     fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    # a non-numeric first parameter (robot.type, mesh.model) is plotted as categories
+    categories = list(dict.fromkeys(r["params"][x_name] for r in done))
+    numeric = not all(math.isnan(r["si"][x_name]) for r in done)
     for gi, (label, recs) in enumerate(groups.items()):
-        recs = sorted(recs, key=lambda r: r["si"][x_name])
-        x = np.array([r["si"][x_name] for r in recs])
+        if numeric:
+            recs = sorted(recs, key=lambda r: r["si"][x_name])
+            x = np.array([r["si"][x_name] for r in recs])
+        else:
+            x = np.array([categories.index(r["params"][x_name]) for r in recs], dtype=float)
         for ki, k in enumerate(keys):
             y = np.degrees([r["summary"].get(k, np.nan) for r in recs])
             tag = ", ".join(f"{n}={v}" for n, v in zip(others, label, strict=True))
@@ -506,7 +512,9 @@ def plot_sweep(
                 color=f"C{gi % 10}",
                 label=f"{k.removeprefix('max_angle_')}" + (f" ({tag})" if tag else ""),
             )
-    ax.set_xlabel(f"{x_name} (SI)")
+    if not numeric:
+        ax.set_xticks(range(len(categories)), categories)
+    ax.set_xlabel(f"{x_name}" + (" (SI)" if numeric else ""))
     ax.set_ylabel("max bending angle (deg)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
