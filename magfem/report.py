@@ -365,6 +365,13 @@ def build_report(
             plot_sweep(records, names, sweep_dir / "sweep.png", paired=study.paired)
         done = [r for r in records if r.get("status") == "done"]
         failed = [r for r in records if r.get("status") == "failed"]
+        unfinished = [r for r in records if r.get("status") == "missing"]
+        if unfinished and not reason:
+            reason = (
+                f"{len(unfinished)} of {len(records)} run(s) not finished; a row with an "
+                "`end_time` shows what an interrupted run reached "
+                f"(`magfem report --run --only {study.ident}` runs them again)"
+            ) + (f": {study.pending}" if study.pending else "")
         wall = sum(float(r.get("wall_s", 0.0)) for r in records)
         status = (
             "predicted"
@@ -464,7 +471,7 @@ def _scene_section(
                     [
                         *(str(rec["params"][n]) for n in names),
                         str(rec.get("status", "missing")),
-                        f"{float(rec.get('wall_s', math.nan)):.0f}",
+                        f"{float(rec['wall_s']):.0f}" if "wall_s" in rec else "–",
                         *(_fmt(c, summ.get(c)) for c in cols),
                     ]
                 )
