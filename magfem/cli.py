@@ -140,6 +140,7 @@ def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
         jobs=args.jobs,
         ranks=args.np,
         retry_failed=args.retry_failed,
+        paired=args.paired,
         echo=None if args.quiet else print,
     )
     failed = [r["point"] for r in result.records if r.get("status") != "done"]
@@ -163,6 +164,7 @@ def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
         run=args.run,
         only=args.only,
         jobs=args.jobs,
+        retry_failed=args.retry_failed,
         docs=Path(args.docs),
         echo=None if args.quiet else print,
     )
@@ -220,6 +222,11 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--np", type=int, default=1, help="MPI ranks per point (mpirun -n)")
     s.add_argument("--out", help="sweep directory (default output/sweeps/<case stem>)")
     s.add_argument("--retry-failed", action="store_true", help="rerun points that failed")
+    s.add_argument(
+        "--paired",
+        action="store_true",
+        help="pair the --param lists element by element (equal lengths) instead of crossing them",
+    )
     s.add_argument("-q", "--quiet", action="store_true", help="no per-point lines")
     text = "run (or reuse) the scene studies and write docs/scenes.md"
     s = sub.add_parser("report", help=text, description=text)
@@ -228,6 +235,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--jobs", type=int, default=2, help="runs at the same time")
     s.add_argument("--out", default="output/report", help="where the runs go")
     s.add_argument("--docs", default="docs", help="docs directory (scenes.md, figures/)")
+    s.add_argument("--retry-failed", action="store_true", help="rerun runs that failed")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p
 

@@ -48,3 +48,15 @@ def test_mesh_writes_msh_with_named_groups(shared_tmp, comm, capsys):
         for name in ("arm", "bottom", "clamp", "tip", "top"):
             assert name in m.field_data, name
             assert f"{name}" in out
+
+
+def test_sweep_paired_lists_must_have_equal_lengths(shared_tmp, comm, capsys):
+    """--paired reaches the sweep: unequal lists are refused before any run."""
+    path = _case_file(shared_tmp)
+    comm.barrier()
+    argv = ["sweep", str(path), "--paired", "--out", str(shared_tmp / "sw")]
+    argv += ["--param", "mesh.size=0.5mm,0.25mm", "--param", "time.end=1ms"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    if comm.rank == 0:
+        assert err.count("\n") == 1 and err.startswith("magfem: error:")
