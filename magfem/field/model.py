@@ -35,6 +35,7 @@ plane) a mesh point (X0, X1) is the 3D point (X0, 0, X1).
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any
 
@@ -60,7 +61,7 @@ __all__ = [
 ]
 
 
-class SourceField:
+class SourceField(ABC):
     """The field of one source at nominal strength (waveform value 1), as numpy functions.
 
     Subclasses: :class:`UniformField`, the FE fields of
@@ -72,17 +73,17 @@ class SourceField:
     name: str = "source"
     uniform: bool = False
 
+    @abstractmethod
     def flux_density(self, points: np.ndarray) -> np.ndarray:
         """B at ``points`` (N, 3), m → (N, 3), T."""
-        raise NotImplementedError
 
+    @abstractmethod
     def gradient(self, points: np.ndarray) -> np.ndarray:
         """∇B at ``points`` (N, 3) → (N, 3, 3), ``[n, i, j] = ∂B_i/∂x_j``, T/m."""
-        raise NotImplementedError
 
+    @abstractmethod
     def hessian(self, points: np.ndarray) -> np.ndarray:
         """∇∇B at ``points`` (N, 3) → (N, 3, 3, 3), T/m²."""
-        raise NotImplementedError
 
     def field_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B (N, 3), ∇B (N, 3, 3)) at ``points`` in one pass (FE fields locate points once)."""
@@ -147,7 +148,7 @@ def workspace_points(center: Sequence[float] | np.ndarray, size: float, n: int =
     return g + np.asarray(center, dtype=float)
 
 
-class FieldModel:
+class FieldModel(ABC):
     """Applied field B_a(x, t) for the mechanics (module docstring).
 
     Args:
@@ -178,17 +179,17 @@ class FieldModel:
         return np.unique(np.concatenate(pts))
 
     # -- mechanics interface -------------------------------------------------------------
+    @abstractmethod
     def bind(self, domain: Any) -> None:
         """Create the Constants/Functions on the robot mesh (once, before compiling forms)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def flux_density(self, x: Any) -> Any:
         """B_a as a UFL 3-vector expression of the current position ``x`` (UFL 3-vector), T."""
-        raise NotImplementedError
 
+    @abstractmethod
     def update(self, t: float, *, side: str = "right", u: Any = None) -> None:
         """Set the Constants/Functions to time ``t`` (one-sided limit ``side``)."""
-        raise NotImplementedError
 
     # -- numpy evaluation ------------------------------------------------------------------
     def evaluate(
@@ -453,6 +454,11 @@ def model_errors(
 
 
 class _ConstantOne(Waveform):
+    """w = 1 at every time (a source at its nominal strength)."""
+
+    def _raw(self, tau: np.ndarray, side: str) -> np.ndarray:
+        return np.ones(np.shape(tau))
+
     def value(self, t: Any, *, side: str = "right") -> Any:
         return 1.0 if np.ndim(t) == 0 else np.ones(np.shape(t))
 

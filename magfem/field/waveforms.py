@@ -34,6 +34,7 @@ exponentials; it is computed exactly, switch by switch, from the start.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
@@ -59,7 +60,7 @@ def _check_side(side: str) -> None:
         raise ValueError(f"side must be 'left' or 'right', got {side!r}")
 
 
-class Waveform:
+class Waveform(ABC):
     """A dimensionless time function w(t), |w| <= 1 (see the module docstring).
 
     Args:
@@ -76,9 +77,9 @@ class Waveform:
         self.amplitude = float(amplitude)
 
     # -- to be provided by subclasses ------------------------------------------------------
+    @abstractmethod
     def _raw(self, tau: np.ndarray, side: str) -> np.ndarray:
         """w at times ``tau = t − start`` (>= 0), ignoring the window."""
-        raise NotImplementedError
 
     def _raw_breaks(self, tau0: float, tau1: float) -> list[float]:
         """Interior switching instants (in t − start) in (tau0, tau1]."""

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -76,7 +77,7 @@ class PlanarArm(NamedTuple):
     tip: str
 
 
-class Outline:
+class Outline(ABC):
     """Base class: see the module docstring. Subclasses fill the attributes below."""
 
     arms: tuple[PlanarArm, ...]
@@ -85,21 +86,21 @@ class Outline:
     clamped: bool
     scale: float
 
+    @abstractmethod
     def build(self, occ: Any) -> None:
         """Add the planar pieces (surfaces on z = 0) to the OCC model of rank 0."""
-        raise NotImplementedError
 
+    @abstractmethod
     def cell_group(self, x: float, y: float) -> str:
         """Cell group name of the piece whose centre of mass is (x, y) (m)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def tip_group(self, x: float, y: float) -> str | None:
         """Tip group of a side face (or strip/surface edge) centred at (x, y), or None."""
-        raise NotImplementedError
 
+    @abstractmethod
     def in_clamp(self, x: npt.NDArray[np.float64], y: npt.NDArray[np.float64]) -> Any:
         """Vectorised: which points (m, robot frame) lie in the clamp patch (boolean array)."""
-        raise NotImplementedError
 
     @property
     def tol(self) -> float:
