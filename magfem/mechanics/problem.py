@@ -10,7 +10,7 @@ with ψ_el and the magnetic energy of :mod:`magfem.material`, M̃ the remanent
 magnetization (piecewise constant per cell group), g gravity and t_c the
 ground-contact traction of :mod:`magfem.mechanics.contact` (when
 ``[contact] ground = true``). δΠ is formed by ``ufl.derivative`` of the
-energy with respect to a placeholder displacement that is then replaced by
+energy with respect to a generic displacement that is then replaced by
 the integrator's stage displacement, so the integrator's weights multiply
 the inertia and the internal force consistently (a derivative taken through
 u_{n+1−αf} itself would carry a spurious factor 1 − αf).
@@ -287,10 +287,8 @@ def build_membrane_problem(
             - rho * ufl.dot(g, v_disp)
         ) * dx + material.volumetric_energy(F, K, kinematics) * dx_vol
 
-    placeholder = fem.Function(V)
-    internal = ufl.algorithms.expand_derivatives(
-        ufl.derivative(potential(placeholder), placeholder, w)
-    )
+    u_generic = fem.Function(V)
+    internal = ufl.algorithms.expand_derivatives(ufl.derivative(potential(u_generic), u_generic, w))
 
     contact = None
     if case.contact.ground:
@@ -328,7 +326,7 @@ def build_membrane_problem(
         )
 
     def residual(u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True) -> ufl.Form:
-        form = ufl.replace(internal, {placeholder: u_})
+        form = ufl.replace(internal, {u_generic: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
         if contact is not None and with_contact:
