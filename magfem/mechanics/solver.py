@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -145,6 +145,13 @@ class NewtonSolver:
             jit_options=JIT_OPTIONS,
         )
         self.timings.compile += time.perf_counter() - t0
+        self.residual_hooks: list[Callable[[PETSc.Vec, PETSc.Vec], None]] = []
+        """Called as ``hook(x, b)`` after the form residual is assembled and
+        ghost-accumulated, before the Dirichlet rows are set: add non-local
+        terms (e.g. self-contact) to the owned entries of ``b``."""
+        self.jacobian_hooks: list[Callable[[PETSc.Vec, PETSc.Mat], None]] = []
+        """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
+        add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
         self._wrap_callbacks(list(bcs), homogeneous_bcs)
 
     def _wrap_callbacks(self, bcs: list[fem.DirichletBC], homogeneous: bool) -> None:
@@ -162,9 +169,13 @@ class NewtonSolver:
                     b_local.set(0.0)
                 fem_petsc.assemble_vector(b, problem.F)  # type: ignore[arg-type]
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                for hook in self.residual_hooks:
+                    hook(x, b)
                 fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             else:
+                if self.residual_hooks:
+                    raise NotImplementedError("residual hooks need homogeneous_bcs=True")
                 fem_petsc.assemble_residual(snes_, x, b, problem.u, problem.F, problem.J, bcs)
             timings.residual += time.perf_counter() - t0
             timings.residual_calls += 1
@@ -172,6 +183,8 @@ class NewtonSolver:
         def jacobian(snes_: Any, x: Any, A: Any, P: Any) -> None:
             t0 = time.perf_counter()
             fem_petsc.assemble_jacobian(snes_, x, A, P, problem.u, problem.J, None, bcs)
+            for hook in self.jacobian_hooks:
+                hook(x, A)
             timings.jacobian += time.perf_counter() - t0
             timings.jacobian_calls += 1
 
