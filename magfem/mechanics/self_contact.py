@@ -12,68 +12,98 @@ Which surfaces.
 Gap and traction.
     For a slave point x (current position) with master point x̄ and the
     master's outward unit normal n̄ there, the normal gap is
-    g = (x − x̄)·n̄ (m; negative when the point is inside the master) and the
-    slave carries the traction per *reference* area
+    g = (x − x̄)·n̄ (m; negative when the point is inside the master). Both
+    passes together store the penalty energy
 
     .. math::
 
-        \mathbf t = k_c\, r(-g)\,\bar{\mathbf n},\qquad k_c = \kappa_s\,\mu/h ,
+        E = \tfrac12 \sum_\text{passes} \int k_c\, R(-g)\, dA,\qquad
+        k_c = \kappa_s\,\mu/h,\qquad R(\delta) = \int_0^\delta r ,
 
-    with r the C¹ ramp of the ground contact
-    (:func:`magfem.mechanics.contact.penalty_ramp`), exactly zero for a
-    positive gap, and onset δ0 = ``self_contact_onset`` h. A contact carrying
-    a pressure p penetrates by δ = r⁻¹(p/k_c)
+    (reported as ``energy_self_contact``; J, J/m for strips) with r the C¹
+    ramp of the ground contact (:func:`magfem.mechanics.contact.penalty_ramp`),
+    exactly zero for a positive gap, onset δ0 = ``self_contact_onset`` h,
+    integrals over the slave's *reference* area. Its gradient is the
+    contact force: each pass pushes its slave with ½ k_c r(−g) n̄ per area and
+    its master with the opposite (action = reaction), so on two matched faces
+    each body carries k_c r(δ) per area. A contact carrying a pressure p
+    therefore penetrates by δ = r⁻¹(p/k_c)
     (:func:`magfem.mechanics.reference.penalty_penetration`): p h/(κ_s μ) +
-    δ0/2 on the linear branch. This is the interpenetration tolerance.
-    Because each body receives the traction of its own pass only, the
-    pressure on either side of a matched contact is k_c r(δ) (the passes do
-    not add up); for two flat faces pressed together the two-pass traction is
-    the gradient of the potential ½ Σ_passes ∫ k_c R(−g) dA,
-    R(δ) = ∫₀^δ r, which is reported as the energy ``energy_self_contact``
-    (Wriggers, *Computational Contact Mechanics*, 2nd ed., Springer 2006,
-    §4.1 and §9.2 for two-pass node-to-surface penalty contact).
+    δ0/2 on the linear branch, sqrt(2 δ0 p/k_c) on the onset. This is the
+    interpenetration tolerance (Wriggers, *Computational Contact Mechanics*,
+    2nd ed., Springer 2006, §4.1 and §9.2 for two-pass node-to-surface
+    penalty contact). A point touching a surface that does not touch back
+    (a corner on a face) gets half that stiffness.
 
 Search (closest point, nearest-node form).
-    The contact data live at the vertices of the contact surfaces (a P1
-    vector space): for every slave vertex, the nearest vertex x_m of each
-    master group is found with a k-d tree over the *current* positions
-    (scipy ``cKDTree``), its area-weighted outward normal
-    n_m ∝ ∫ J F⁻ᵀ N φ_m dA (assembled, current configuration) is taken, and
-    (x̄, n̄) = (x_m, n_m). The gap to the master's tangent plane at x_m
-    equals the gap to the surface for a flat master and is off by
+    Normals and touching are decided at the vertices of the contact surfaces
+    (a P1 vector space): for every slave vertex, the nearest vertex x_m of
+    each master group is found with a k-d tree over the *current* positions
+    (scipy ``cKDTree``), and of the contact facets around it the one whose
+    normal most opposes the slave's gives n̄ (facet normals from the current
+    vertices, oriented by the area-weighted nodal normals
+    n_m ∝ ∫ J F⁻ᵀ N φ_m dA). Candidates must face each other
+    (n_s·n_m < 0), lie within one facet size laterally (a point beyond the
+    master's edge does not touch it) and less than one thickness inside (a
+    point that went through is not pulled back the wrong way). Then every
+    displacement node of the slave surface (vertices and, for P2/P3, edge
+    and face nodes) takes the master group of the paired vertices of its
+    facets and, in that group, the nearest master *displacement node*: x̄ at
+    a slave quadrature point is interpolated from those nodes with the
+    displacement's own shape functions, so on matching meshes it is the
+    master's own surface and the reaction is distributed over the master's
+    nodes like the traction over the slave's (with vertices only, the P2
+    edge nodes carried half the pressure and the faces rippled). n̄ is
+    interpolated linearly from the vertices. The gap to the master's tangent
+    plane equals the gap to the surface for a flat master and is off by
     O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
-    Candidates must face each other (n_s·n_m < 0), lie within one facet
-    size laterally (a point beyond the master's edge does not touch it) and
-    less than one thickness inside (a point that went through is not
-    pulled back the wrong way). Slave quadrature points interpolate (x̄, n̄)
-    linearly between the vertices, exact for a flat master.
+    Nodes without a master have x̄ at their own position (no gap there).
 
-When the data are refreshed.
-    At the start of every step (at the integrator's stage displacement,
-    where the residual is enforced) and before every observation; within a
-    step (x̄, n̄) is frozen, so each pass sees the master where it was at the
-    start of the step and its Jacobian holds the slave's own penalty
-    stiffness only. The data are Functions updated in place; the forms are
-    compiled once.
+When the data are refreshed: implicit coupling.
+    The pairing (which master node, n̄) is searched at the start of every
+    step (at the integrator's stage displacement, where the residual is
+    enforced) and before every observation, and is frozen within the step.
+    x̄ is not: inside every Newton iteration it is the *current* stage
+    position of the paired master node, x̄ = X_m + u_{n+1−αf}(X_m), so the
+    gap is evaluated with the master's current displacement. The step terms
+    are non-local (slave rows depend on master dofs), so they are not part
+    of the UFL residual: :meth:`SelfContact.attach` registers hooks on the
+    Newton solver that add ∂E/∂u to the residual (slave traction assembled
+    as a dolfinx form, master reaction scattered to the master nodes' global
+    rows) and its consistent linearisation to the Jacobian: the four blocks
+    slave/master rows × slave/master columns, assembled as dolfinx forms in
+    (u, x̄) and mapped to global dofs, scaled by ∂u_stage/∂u_{n+1} = 1 − αf,
+    off the Dirichlet rows and columns, as new nonzeros of the PETSc matrix.
+    Within a step the contact is the gradient of E (symmetric Jacobian,
+    forces summing to zero); the forms are compiled once.
 
-    Limit (measured, ``tests/test_self_contact.py``): this staggered coupling
-    is stable while the contact is mass-dominated within a step,
-    k_c β Δt² ≲ ρ H (H the thickness of the bodies): bouncing blocks with
-    k_c β Δt²/(ρH) = 3e-3 conserve energy to 8e-4, and blocks resting on each
-    other under a body force stay stable (slowly settling) at 0.34; at 340
-    (Δt = 0.5 ms) the rocking of the upper block grows until Newton fails.
-    Refreshing at every Newton iteration (tried) made the first impact step
-    diverge: both passes resolve the whole gap at once. A coupled Jacobian
-    (master rows) is the way beyond this limit.
+    Measured (``tests/test_self_contact.py``): the linearisation matches
+    central differences to 4e-12; bouncing blocks (k_c β Δt²/(ρH) = 3e-3)
+    conserve kinetic + elastic + penalty energy to 5.4e-4 through the
+    impact and 1.3e-4 after separation, both falling 4× when Δt halves
+    (second order; the former scheme with the master frozen per step gave
+    8.8e-3 and 8.1e-4, independent of Δt); blocks pressed together by a body
+    force at k_c β Δt²/(ρH) = 1500 (Δt = 0.5 ms, ρ∞ = 0.5) come to rest at
+    the weight and the penalty penetration, where the former scheme (stable
+    only for a ratio ≲ 1) failed after 11 steps. With ρ∞ = 1 and Δt far
+    beyond the contact period (2π sqrt(ρH/k_c) = 54 µs there) the blocks
+    keep rattling, as any undamped impact would; ρ∞ < 1 removes that.
+    (Re-searching the data at every Newton iteration without the master
+    columns, tried with the former scheme, diverged on the first impact:
+    both passes resolved the whole gap at once.)
 
 Parallel.
-    Each rank owns the vertices it owns; their positions, normals, groups
-    and reference positions are gathered on every rank (``allgather``) and
-    every rank searches for its own (owned and ghost) vertices. Memory and
-    time of the gather grow with the number of contact vertices of the
-    whole body (about 10⁴ for the 0.5 mm bow tie, a few hundred kB): fine for
-    the membranes here, a bounding-box-filtered exchange is the next step
-    beyond ~10⁶ surface vertices.
+    Each rank owns the vertices and nodes it owns; their positions, normals,
+    groups and reference positions are gathered on every rank
+    (``allgather``) and every rank searches for its own (owned and ghost)
+    vertices and nodes; the current master node positions are gathered the
+    same way at every residual and Jacobian evaluation, and the reaction
+    rows a rank computes for a master node owned elsewhere travel through
+    PETSc's off-process assembly. Memory and time of the gather grow with
+    the number of contact nodes of the whole body (about 10⁴–10⁵ for the
+    0.5 mm bow tie, ≲ a few MB): fine for the membranes here, a
+    bounding-box-filtered exchange is the next step beyond ~10⁶ surface
+    nodes.
 
 Observable (:meth:`SelfContact.observe`): the contact force (N; N/m × width
 for strips) per pair of groups, the largest penetration and the pressure
@@ -94,6 +124,7 @@ import ufl
 from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
+from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
 from magfem.config import CaseError
@@ -102,6 +133,7 @@ from magfem.mechanics.contact import penalty_ramp
 
 if TYPE_CHECKING:
     from magfem.mechanics.integrator import TimeIntegrator
+    from magfem.mechanics.solver import NewtonSolver
     from magfem.mechanics.spec import ContactSpec
 
 __all__ = [
@@ -180,8 +212,13 @@ class SelfContact:
 
     Attributes:
         measure: ``ds`` over the contact surfaces (explicit quadrature degree).
-        xbar, nbar: master point (m) and master unit normal per slave vertex
-            (P1 vector Functions; nbar = 0 where no master is near).
+        xbar: master point (m) per displacement node (a Function of the
+            displacement space, moved to the master nodes' current stage
+            position at every Newton evaluation).
+        nbar: master unit normal per slave vertex (P1 vector Function; 0 where
+            no master is near).
+        engaged: some slave point of the body has a master (all ranks agree);
+            the hooks do nothing otherwise.
         events: touch/release messages not yet handed out (:meth:`pop_events`).
     """
 
@@ -272,14 +309,51 @@ class SelfContact:
                     slot[d] += 1
         self.reference = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
         self.lateral = self._largest_facet(facets)
-        self.xbar = fem.Function(Vc, name="self_contact_point")
+        V = u.function_space
+        self.V = V
+        self.xbar = fem.Function(V, name="self_contact_point")
         self.nbar = fem.Function(Vc, name="self_contact_normal")
-        self.u_geom = fem.Function(u.function_space, name="self_contact_displacement")
+        self.u_geom = fem.Function(V, name="self_contact_displacement")
         self._u1 = fem.Function(Vc)
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
         self.partner = np.full(n_nodes, -1, dtype=np.int32)
         self.gap = np.zeros(n_nodes)
+        self.engaged = False
+        """Some slave point of the whole body has a master (same value on every rank)."""
+
+        # the displacement nodes (blocks of V, vertices and higher-order nodes) of the contact
+        # surfaces, the group of each, and the V nodes of each contact facet
+        vmap = V.dofmap.index_map
+        self._v_global = vmap.local_to_global(
+            np.arange(vmap.size_local + vmap.num_ghosts, dtype=np.int32)
+        ).astype(np.int64)
+        self.vlabel = np.full(vmap.size_local + vmap.num_ghosts, -1, dtype=np.int32)
+        for i in range(len(names)):
+            vn = fem.locate_dofs_topological(V, fdim, facets[facet_label == i])
+            self.vlabel[vn[self.vlabel[vn] < 0]] = i
+        self.vnodes = np.flatnonzero(self.vlabel >= 0).astype(np.int32)
+        self.vreference = V.tabulate_dof_coordinates()[:, :gdim].copy()
+        domain.topology.create_connectivity(tdim, fdim)
+        c2f = domain.topology.connectivity(tdim, fdim)
+        layout = V.dofmap.dof_layout
+        closure = [
+            np.asarray(layout.entity_closure_dofs(fdim, i))
+            for i in range(len(c2f.links(0)) if len(cell_label) else 0)
+        ]
+        rows = []
+        for f in facets:
+            c = f2c.links(f)[0]
+            rows.append(V.dofmap.cell_dofs(c)[closure[int(np.flatnonzero(c2f.links(c) == f)[0])]])
+        self.facet_vnodes = np.array(rows, dtype=np.int32).reshape(len(facets), -1)
+        self.vpartner = np.full(self.vlabel.size, -1, dtype=np.int64)
+        """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
+        # contact nodes owned here, in the order of every gather (search and coupling)
+        self._vown = self.vnodes[self.vnodes < vmap.size_local]
+        self._gvglobal = np.concatenate(self.comm.allgather(self._v_global[self._vown]))
+        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
+        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
+        self._bc_global = np.zeros(0, dtype=np.int64)
 
         X = ufl.SpatialCoordinate(domain)
         phi = ufl.TestFunction(Vc)
@@ -290,6 +364,27 @@ class SelfContact:
         # nodal forces at the observed state (u_geom = u_n during observation)
         p = self.pressure(X + self.u_geom)
         self._force_form = fem.form(ufl.inner(p * self.nbar, phi) * self.measure)
+
+        # coupled step terms: the half-pass traction on the slave (test w) and its reaction on
+        # the master point x̄ (test ψ, nodal values of x̄ in V), with their derivatives in
+        # u_geom (slave columns) and in x̄ (master columns)
+        w, psi = ufl.TestFunction(V), ufl.TestFunction(V)
+        du, dxbar = ufl.TrialFunction(V), ufl.TrialFunction(V)
+        half = 0.5 * self.pressure(X + self.u_geom)
+        slave = -half * ufl.inner(self.nbar, w) * self.measure  # ∂E/∂u_s
+        master = half * ufl.inner(self.nbar, psi) * self.measure  # ∂E/∂x̄
+        jit = {"cffi_extra_compile_args": ["-O2"]}
+        self._slave_form = fem.form(slave, jit_options=jit)
+        self._master_form = fem.form(master, jit_options=jit)
+        self._blocks = []
+        for form, var, trial in (
+            (slave, self.u_geom, du),
+            (slave, self.xbar, dxbar),
+            (master, self.u_geom, du),
+            (master, self.xbar, dxbar),
+        ):
+            a = fem.form(ufl.derivative(form, var, trial), jit_options=jit)
+            self._blocks.append((a, fem.create_matrix(a, la.BlockMode.expanded)))
         self._active: dict[tuple[int, int], bool] = {}
         self.first_touch: dict[tuple[int, int], float] = {}
         self.max_force = 0.0
@@ -308,10 +403,15 @@ class SelfContact:
         return self.stiffness * r
 
     def work(self, x: Any, w: Any) -> Any:
-        """Virtual work ∫ k_c r(−g) n̄·w dA (UFL form); subtract it from the residual.
+        """Virtual work ∫ k_c r(−g) n̄·w dA of the slave tractions with frozen data (UFL form).
+
+        Used only where the solver hooks do not act (the consistent initial
+        acceleration): each body gets the full traction of its own pass,
+        which for matched faces equals the coupled half-pass traction plus
+        the other pass's reaction. Subtract it from the residual.
 
         Args:
-            x: current position X + u at the stage point, UFL vector (gdim,) (m).
+            x: current position X + u, UFL vector (gdim,) (m).
             w: test function of the displacement space.
         """
         return ufl.inner(self.pressure(x) * self.nbar, w) * self.measure
@@ -371,7 +471,6 @@ class SelfContact:
         gx, gn, glabel, gref = (np.concatenate([p[k] for p in parts]) for k in range(4))
 
         best_dist = np.full(nodes.size, np.inf)
-        xbar = x.copy()
         nbar = np.zeros_like(x)
         partner = np.full(nodes.size, -1, dtype=np.int32)
         gap = np.zeros(nodes.size)
@@ -402,20 +501,67 @@ class SelfContact:
             has = valid.any(axis=1)
             first = np.argmax(valid, axis=1)
             rows = np.arange(slaves.size)
-            pick = idx[rows, first]
             better = has & (dist[rows, first] < best_dist[slaves])
             s = slaves[better]
             best_dist[s] = dist[rows, first][better]
-            xbar[s] = mx[pick[better]]
             nbar[s] = normal[rows, first][better]
             partner[s] = j
             gap[s] = g[rows, first][better]
-        self.xbar.x.array.reshape(-1, gdim)[nodes] = xbar
         self.nbar.x.array.reshape(-1, gdim)[nodes] = nbar
-        self.xbar.x.scatter_forward()
         self.nbar.x.scatter_forward()
         self.partner[nodes] = partner
         self.gap[nodes] = gap
+        self._pair_nodes()
+        self._place(self.u_geom.x.array)
+
+    def _pair_nodes(self) -> None:
+        """Pair every displacement node of the contact surfaces with a master node (collective).
+
+        A node takes the master group of the paired vertices of its facets
+        and, in that group, the nearest node of the master's surface (current
+        positions, vertices and higher-order nodes alike): on matching meshes
+        a slave edge node faces the master's edge node, so x̄ is the master's
+        own interpolation of its surface and the reaction is distributed like
+        the slave's traction.
+        """
+        gdim = self.gdim
+        disp = self.u_geom.x.array.reshape(-1, gdim)
+        position = self._gvref + np.concatenate(self.comm.allgather(disp[self._vown]))
+        group = np.full(self.vlabel.size, -1, dtype=np.int32)
+        if self.facet_vnodes.shape[0]:
+            fgroup = self.partner[self.facet_dofs].max(axis=1)
+            np.maximum.at(
+                group,
+                self.facet_vnodes.ravel(),
+                np.repeat(fgroup, self.facet_vnodes.shape[1]),
+            )
+        self.vpartner[:] = -1
+        here = self.vreference + disp
+        for j in range(len(self.groups)):
+            slaves = np.flatnonzero(group == j)
+            in_j = np.flatnonzero(self._gvlabel == j)
+            if slaves.size == 0 or in_j.size == 0:
+                continue
+            _, idx = cKDTree(position[in_j]).query(here[slaves], k=1)
+            self.vpartner[slaves] = in_j[idx]
+        self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
+
+    def _place(self, displacement: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
+        """Move x̄ to the master nodes at ``displacement`` (local V array, m) (collective).
+
+        Returns, per local V node, the global V node whose position x̄ there
+        is: its master node, or the node itself where it has none (there
+        n̄ = 0 or the node lies at the rim of the contact zone).
+        """
+        gdim = self.gdim
+        disp = displacement.reshape(-1, gdim)
+        position = self._gvref + np.concatenate(self.comm.allgather(disp[self._vown]))
+        k = self.vpartner
+        paired = k >= 0
+        xbar = self.vreference + disp
+        xbar[paired] = position[k[paired]]
+        self.xbar.x.array[:] = xbar.ravel()
+        return np.where(paired, self._gvglobal[np.maximum(k, 0)], self._v_global)
 
     def _facet_normals(self, nodal: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Unit outward normals (n_nodes, ADJACENT, gdim) of the contact facets around each vertex.
@@ -441,6 +587,116 @@ class SelfContact:
         has = self.adjacent >= 0
         out[has] = normal[self.adjacent[has]]
         return out
+
+    # --- coupled step terms (Newton hooks) ---------------------------------------------------
+
+    def attach(self, solver: NewtonSolver, bcs: Sequence[fem.DirichletBC]) -> None:
+        """Add the coupled contact terms to ``solver``'s residual and Jacobian (collective).
+
+        ``bcs`` are the (homogeneous) Dirichlet conditions of ``solver``:
+        entries in their rows or columns are left out of the Jacobian.
+        """
+        bs = self.V.dofmap.index_map_bs
+        owned = [np.zeros(0, dtype=np.int64)]
+        for bc in bcs:
+            dofs, num_owned = bc.dof_indices()
+            local = np.asarray(dofs[:num_owned], dtype=np.int64)
+            owned.append(bs * self._v_global[local // bs] + local % bs)
+        self._bc_global = np.unique(np.concatenate(self.comm.allgather(np.concatenate(owned))))
+        solver.residual_hooks.append(self.add_residual)
+        solver.jacobian_hooks.append(self.add_jacobian)
+
+    @property
+    def stage_weight(self) -> float:
+        """∂u_stage/∂u_{n+1}: 1 − αf for the dynamic schemes, 1 quasi-static."""
+        integ = self.integrator
+        if integ.dynamic and integ.params is not None:
+            return 1.0 - integ.params.alpha_f
+        return 1.0
+
+    def _state(self, x: Any) -> npt.NDArray[np.int64]:
+        """Set u_geom to the stage displacement of the iterate ``x`` and x̄ to the current
+        master nodes (collective); returns :meth:`_place`'s global node per local V node."""
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with x.localForm() as local:
+            self.u_geom.x.array[:] = local.array_r
+        integ = self.integrator
+        if integ.dynamic and integ.params is not None:
+            af = integ.params.alpha_f
+            self.u_geom.x.array[:] = (1.0 - af) * self.u_geom.x.array + af * integ.u0.x.array
+        return self._place(self.u_geom.x.array)
+
+    def add_residual(self, x: Any, b: Any) -> None:
+        """Residual hook: add ∂E/∂u at the stage point of ``x`` to ``b`` (collective).
+
+        E = ½ Σ_passes ∫ k_c R(−g) dA with g = (x_s − x̄)·n̄ and x̄ following the
+        master nodes: the slave gets −½ ∫ k_c r n̄·w dA, the master nodes the
+        opposite, weighted by the shape functions of x̄ (action = reaction).
+        """
+        if not self.engaged:
+            return
+        gdim = self.gdim
+        target = self._state(x)
+        slave = fem.assemble_vector(self._slave_form)
+        slave.scatter_reverse(la.InsertMode.add)
+        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        with b.localForm() as local:
+            local.array[:n] += slave.array[:n]
+        master = fem.assemble_vector(self._master_form).array  # local + ghost nodes, unsummed
+        rows = (gdim * target[:, None] + np.arange(gdim)).ravel()
+        keep = master != 0.0
+        rows, values = rows[keep], master[keep]
+        b.setValues(rows.astype(PETSc.IntType), values, addv=PETSc.InsertMode.ADD)
+        b.assemblyBegin()
+        b.assemblyEnd()
+
+    def add_jacobian(self, x: Any, A: Any) -> None:
+        """Jacobian hook: add the consistent linearisation of :meth:`add_residual` (collective).
+
+        The four blocks (slave/master rows × slave/master columns) are
+        assembled as dolfinx forms in (u_geom, x̄), mapped to global
+        displacement dofs (x̄ of a node → its master node), scaled by
+        ∂u_stage/∂u and added to ``A`` off the Dirichlet rows and columns
+        (new nonzeros allowed: master–slave couplings are not in the form's
+        sparsity).
+        """
+        if not self.engaged:
+            return
+        gdim = self.gdim
+        target = self._state(x)
+        bs = self.V.dofmap.index_map_bs
+        v_rows = (bs * self._v_global[:, None] + np.arange(bs)).ravel()
+        x_rows = (gdim * target[:, None] + np.arange(gdim)).ravel()
+        rows, cols, vals = [], [], []
+        for (form, mat), (r_map, c_map) in zip(
+            self._blocks,
+            ((v_rows, v_rows), (v_rows, x_rows), (x_rows, v_rows), (x_rows, x_rows)),
+            strict=True,
+        ):
+            mat.data[:] = 0.0
+            fem.assemble_matrix(mat, form)
+            coo = mat.to_scipy(ghosted=True).tocoo()
+            keep = coo.data != 0.0
+            rows.append(r_map[coo.row[keep]])
+            cols.append(c_map[coo.col[keep]])
+            vals.append(coo.data[keep])
+        row, col, val = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        keep = ~(np.isin(row, self._bc_global) | np.isin(col, self._bc_global))
+        row, col, val = row[keep], col[keep], self.stage_weight * val[keep]
+        order = np.lexsort((col, row))
+        row, col, val = row[order], col[order], val[order]
+        uniq, start = np.unique(row, return_index=True)
+        indptr = np.append(start, row.size).astype(PETSc.IntType)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        if uniq.size:
+            A.setValuesIJV(
+                indptr,
+                col.astype(PETSc.IntType),
+                val,
+                addv=PETSc.InsertMode.ADD,
+                rowmap=uniq.astype(PETSc.IntType),
+            )
+        A.assemble()
 
     # --- observation ------------------------------------------------------------------------
 
