@@ -98,7 +98,8 @@ class MembraneProblem:
         quadrature_degree: degree used on every measure.
         field: the bound field model.
         self_contact: arm–arm contact (``[contact] self_contact``) or None; its
-            data are refreshed by the time loop (see :mod:`.self_contact`).
+            data are refreshed by the time loop and its step terms, not part of
+            ``residual``, are added by Newton hooks (``SelfContact.attach``).
         impact_absorber: :class:`~magfem.mechanics.contact.ImpactAbsorber` applied
             after every accepted dynamic step with ground contact, else None.
         gravity: the gravity vector Constant g (m/s², gdim components), scaled in
@@ -325,13 +326,17 @@ def build_membrane_problem(
             case.contact, robot, u, integ, shear_modulus=mat.shear_modulus, quadrature_degree=q
         )
 
-    def residual(u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True) -> ufl.Form:
+    def residual(
+        u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True, step: bool = False
+    ) -> ufl.Form:
         form = ufl.replace(internal, {u_generic: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
         if contact is not None and with_contact:
             form = form - contact.work(X + u_, v_, w, ds_contact)
-        if self_contact is not None:
+        if self_contact is not None and not step:
+            # the step residual gets the coupled self contact from the Newton hooks
+            # (SelfContact.attach); this frozen-data form serves the initial acceleration
             form = form - self_contact.work(X + u_, w)
         return form
 
@@ -340,10 +345,10 @@ def build_membrane_problem(
         # generalized-α stage point, so a landing column is stopped within the step
         # (with ImpactAbsorber after it, see contact.py and docs/verification.md)
         F_step = integ.discretise(
-            lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, with_contact=False)
+            lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, with_contact=False, step=True)
         ) - contact.work(X + integ.u, integ.velocity(), w, ds_contact)
     else:
-        F_step = integ.discretise(residual)
+        F_step = integ.discretise(lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, step=True))
 
     v1 = integ.v0  # after advance(), (u, v0) is the state at t_{n+1}
     Fu = material.deformation_gradient(u)

@@ -157,6 +157,8 @@ class MembraneSimulation:
             homogeneous_bcs=True,
         )
         self.self_contact = self.problem.self_contact
+        if self.self_contact is not None:  # coupled contact terms of every Newton iteration
+            self.self_contact.attach(self.solver, self.problem.bcs)
         t1 = _time.perf_counter()
         self.energy_forms = {
             k: fem.form(f, jit_options={"cffi_extra_compile_args": ["-O2"]})
