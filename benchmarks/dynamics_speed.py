@@ -73,6 +73,7 @@ def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
 
     rows = {
         "jacobian": _timed(jac, n),
+        **_kernel_times(sim, n),
         "residual (no lifting)": _timed(res_ours, n),
         "residual (dolfinx, lifting)": _timed(res_dolfinx, n),
     }
@@ -98,6 +99,42 @@ def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
         rows[f"LU {factor} (factor + solve)"] = _timed(lu, n)
         ksp.destroy()
     return rows
+
+
+def _kernel_times(sim: object, n: int) -> dict[str, tuple[float, float]]:
+    """(cpu, wall) ms per assembly of each integral of the step Jacobian on its own.
+
+    UFL groups the Jacobian's integrals by measure and quadrature degree; each
+    group is one generated kernel. Timing them separately shows where the
+    Jacobian's cost goes (elastic + magnetic at degree 4, the reduced-degree
+    volumetric term, inertia, ground contact on the boundary).
+    """
+    import ufl
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+
+    from magfem.mechanics.solver import FORM_COMPILER_OPTIONS, JIT_OPTIONS
+
+    problem = sim.problem  # type: ignore[attr-defined]
+    jacobian = ufl.derivative(problem.residual, problem.u)
+    out: dict[str, tuple[float, float]] = {}
+    for i, integral in enumerate(jacobian.integrals()):
+        form = fem.form(
+            ufl.Form([integral]),
+            form_compiler_options=FORM_COMPILER_OPTIONS,
+            jit_options=JIT_OPTIONS,
+        )
+        A = fem_petsc.create_matrix(form)
+
+        def assemble(A: object = A, form: object = form) -> None:
+            A.zeroEntries()  # type: ignore[attr-defined]
+            fem_petsc.assemble_matrix(A, form)  # type: ignore[arg-type]
+            A.assemble()  # type: ignore[attr-defined]
+
+        degree = integral.metadata().get("quadrature_degree")
+        out[f"  kernel {i}: {integral.integral_type()} q={degree}"] = _timed(assemble, n)
+        A.destroy()
+    return out
 
 
 def assembly(n: int) -> None:
