@@ -251,3 +251,65 @@ def test_contact_surfaces_name_facet_groups(comm):
         case = _case(contact={"ground": True, "surfaces": bad})
         with pytest.raises(CaseError, match=r"contact\.surfaces"):
             MembraneSimulation(case, comm)
+
+
+@pytest.mark.parametrize("model", ["strip", "solid"])
+def test_step_jacobian_matches_central_differences(comm, model):
+    """The Jacobian Newton assembles is the exact derivative of the step residual.
+
+    Generalized-α inertia, neo-Hookean + magnetic energy, gravity, ground contact with
+    penalty, dashpot and regularised friction, all at once, at a perturbed state with
+    points pressed into the ground (so every contact branch is active somewhere).
+    Reference: central differences of the assembled residual along a random
+    direction d, whose error is O(ε²): J d − (R(u + εd) − R(u − εd))/(2ε) must fall
+    ~100× per 10× smaller ε (second order) until round-off, and stay below 1e-6 of
+    |J d| at ε = 1e-9 m (measured 3e-10 solid / 2e-10 strip; an error in any
+    linearised term, e.g. a friction tangent without the Δt dependence of the velocity,
+    gives O(1) instead). Slow Newton convergence on this problem (docs/mechanics.md) is
+    therefore not a wrong Jacobian.
+    """
+    from dolfinx.fem import petsc as fem_petsc
+
+    case = _case(
+        mesh={"model": model, "size": "1 mm" if model == "strip" else "2 mm"},
+        contact={"ground": True, "friction": 0.5},
+        environment={"gravity": [0, 0, "-9.8 m/s^2"]},
+    )
+    sim = MembraneSimulation(case, comm)
+    sim.initialise()
+    integ = sim.integrator
+    dt = 2.5e-4
+    integ.begin(dt)
+    sim.field.update(integ.stage_time(0.0, dt), side="right", u=integ.u0)
+    u = sim.u
+    rng = np.random.default_rng(comm.rank)
+    # push the body down by up to half a thickness (into the ground) with random wiggles
+    gdim = sim.gdim
+    values = u.x.array.reshape(-1, gdim)
+    values[:] = 2e-6 * rng.standard_normal(values.shape)
+    values[:, gdim - 1] -= 40e-6 * rng.random(values.shape[0])
+    for bc in sim.problem.bcs:
+        bc.set(u.x.array, alpha=0.0)
+    u.x.scatter_forward()
+    problem = sim.solver.problem
+    x0 = problem.x.duplicate()
+    fem_petsc.assign(u, x0)
+    A = problem.A
+    sim.solver.snes.computeFunction(x0, problem.b)  # sets the state as Newton does
+    sim.solver.snes.computeJacobian(x0, A, problem.P_mat)
+    d = x0.duplicate()
+    d.setArray(rng.standard_normal(d.getLocalSize()))
+    for bc in sim.problem.bcs:  # Newton never moves constrained dofs
+        bc.set(d.array_w, alpha=0.0)
+    Jd = d.duplicate()
+    A.mult(d, Jd)
+    norm = Jd.norm()
+    errors = []
+    for eps in (1e-7, 1e-8, 1e-9):
+        rp, rm = d.duplicate(), d.duplicate()
+        sim.solver.snes.computeFunction(x0 + eps * d, rp)
+        sim.solver.snes.computeFunction(x0 - eps * d, rm)
+        fd = (rp - rm) / (2 * eps)
+        errors.append((Jd - fd).norm() / norm)
+    assert errors[2] < 1e-6, errors
+    assert errors[1] < 0.05 * errors[0] or errors[1] < 1e-8, errors
