@@ -94,6 +94,16 @@ def table(title: str, rows: list[dict[str, Any]], reference: dict[str, Any]) -> 
     return lines
 
 
+def _save(path: Path | None, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
+    """Write the finished runs as JSON (after every run: an interrupted benchmark keeps them)."""
+    if path is None or comm.rank != 0:
+        return
+    payload = [
+        {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()} for r in rows
+    ]
+    path.write_text(json.dumps(payload, indent=1))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", default=str(REPO / "cases" / "one_arm_trapezoid.toml"))
@@ -122,7 +132,11 @@ def main() -> None:
                 failed.append(f"solid size {size * 1e3:g} mm, dt {dt * 1e3:g} ms")
                 continue
             rows.append(r | {"model": "solid", "size": size, "dt": dt})
-            rank0_print(f"  solid size={size:g} dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps")
+            rank0_print(
+                f"  solid size={size:g} dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps, "
+                f"{r['newton']:.2f} Newton/step, end angle {math.degrees(r['angle'][-1]):.3f} deg"
+            )
+            _save(args.json, rows, comm)
     reference = rows[-1]  # finest mesh, smallest step that completed
     lines = table(
         f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the finest run",
@@ -145,6 +159,7 @@ def main() -> None:
                     continue
                 strip_rows.append(r | {"model": model, "size": size, "dt": dt})
                 rank0_print(f"  {model} size={size:g}: {r['wall']:.1f} s")
+                _save(args.json, rows + strip_rows, comm)
         solid_ref = [r for r in strip_rows if r["model"] == "solid"][-1]
         title = (
             f"{Path(args.strip_case).name} at {thickness * 1e6:g} um, dt {dt * 1e3:g} ms: "
@@ -158,12 +173,7 @@ def main() -> None:
     ]
     lines += [f"FAILED (SimulationError): {f}" for f in failed]
     rank0_print("\n".join(lines))
-    if args.json is not None and comm.rank == 0:
-        payload = [
-            {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()}
-            for r in rows
-        ]
-        args.json.write_text(json.dumps(payload, indent=1))
+    _save(args.json, rows, comm)
 
 
 if __name__ == "__main__":
