@@ -326,18 +326,15 @@ def build_membrane_problem(
             case.contact, robot, u, integ, shear_modulus=mat.shear_modulus, quadrature_degree=q
         )
 
-    def residual(
-        u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True, step: bool = False
-    ) -> ufl.Form:
+    def residual(u_: Any, v_: Any, a_: Any, t_: Any, *, with_contact: bool = True) -> ufl.Form:
+        # self contact is not a UFL term: SelfContact.attach adds it to every Newton
+        # evaluation of the step (it couples distant dofs); the initial acceleration
+        # solve does without it (bodies start apart or just touching: zero force)
         form = ufl.replace(internal, {u_generic: u_})
         if integ.dynamic:
             form = form + rho * ufl.dot(a_, w) * dx
         if contact is not None and with_contact:
             form = form - contact.work(X + u_, v_, w, ds_contact)
-        if self_contact is not None and not step:
-            # the step residual gets the coupled self contact from the Newton hooks
-            # (SelfContact.attach); this frozen-data form serves the initial acceleration
-            form = form - self_contact.work(X + u_, w)
         return form
 
     if contact is not None and integ.dynamic:
@@ -345,10 +342,10 @@ def build_membrane_problem(
         # generalized-α stage point, so a landing column is stopped within the step
         # (with ImpactAbsorber after it, see contact.py and docs/verification.md)
         F_step = integ.discretise(
-            lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, with_contact=False, step=True)
+            lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, with_contact=False)
         ) - contact.work(X + integ.u, integ.velocity(), w, ds_contact)
     else:
-        F_step = integ.discretise(lambda u_, v_, a_, t_: residual(u_, v_, a_, t_, step=True))
+        F_step = integ.discretise(residual)
 
     v1 = integ.v0  # after advance(), (u, v0) is the state at t_{n+1}
     Fu = material.deformation_gradient(u)
