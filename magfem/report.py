@@ -226,7 +226,7 @@ STUDIES: tuple[Study, ...] = (
         "Bow-tie at 10–30 Hz, 2 mT",
         "cases/bow_tie.toml",
         (f"{_F}=10Hz,20Hz,30Hz",),
-        "arm sequence; arms touching (needs self-contact: missing)",
+        "arm sequence; arms touching (self-contact force and first touch in the history)",
         columns=("max_angle_arm_left", "max_angle_arm_right"),
         pending=_SOLID_PENDING,
     ),
