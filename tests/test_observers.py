@@ -198,3 +198,69 @@ def test_run_writes_a_motion_gif(repo, shared_tmp, comm):
     body = [f[60:] for f in frames]
     changed = np.mean(np.abs(body[-1] - body[0]) > 10)
     assert changed > 1e-3
+
+
+@pytest.mark.parametrize(
+    ("case_name", "expected"),
+    [("active_length.toml", 1e-3), ("two_arm_20hz.toml", 0.5e-3), ("five_arm.toml", 0.0)],
+)
+def test_bonded_length_is_the_clamp_under_each_arm(repo, comm, case_name, expected):
+    """The bonded strip under an arm: 1 mm root strip, half of a two-arm's 1 mm middle
+    patch per arm, nothing under a five-arm star's arms (its hub is bonded)."""
+    from magfem.case import load_case
+    from magfem.geometry.robot_mesh import create_robot_mesh
+    from magfem.geometry.robots import outline_of
+    from magfem.mechanics.observers import bonded_length
+
+    case = load_case(repo / "cases" / case_name, ["mesh.size=1.5mm", "mesh.layers=1"])
+    robot = create_robot_mesh(case.robot, case.mesh, comm)
+    gdim = robot.mesh.geometry.dim
+    px, py, pz = case.robot.position
+    offset = (px, py) if gdim == 3 else (px, pz)
+    for arm in robot.arms:
+        # in_clamp has a relative tolerance 1e-6 of the robot's size at the patch edge
+        got = bonded_length(arm, outline_of(case.robot).in_clamp, offset, gdim)
+        assert got == pytest.approx(expected, abs=1e-7)
+
+
+def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
+    """A strip bent into a circular arc from the clamp edge s_b = 1 mm over ℓ = 4 mm, then
+    straight: the active length is ℓ (not s_b + ℓ), to one sample spacing h = 0.125 mm
+    (the arc's ends fall on samples here; measured 3.999999 mm)."""
+    from dolfinx import fem
+
+    from magfem.case import load_case
+    from magfem.geometry.robot_mesh import create_robot_mesh
+    from magfem.geometry.robots import outline_of
+    from magfem.mechanics.observers import bonded_length
+
+    case = load_case(repo / "cases" / "active_length.toml", ["mesh.size=0.25mm", "mesh.layers=1"])
+    robot = create_robot_mesh(case.robot, case.mesh, comm)
+    arm = robot.arms[0]
+    root = np.asarray(arm.root)[:2]
+    sign = 1.0 if arm.direction[0] > 0 else -1.0
+    px, _, pz = case.robot.position
+    s_b = bonded_length(arm, outline_of(case.robot).in_clamp, (px, pz), 2)
+    ell, radius = 4e-3, 5e-3
+
+    def bend(x):
+        s = sign * (x[0] - root[0])  # along the arm from its root
+        z = x[1] - root[1]  # offset from the mid-thickness line
+        sb = np.clip(s - s_b, 0.0, None)
+        ang = np.minimum(sb, ell) / radius
+        # point of the bent midline and its normal (−sin, cos) in the arm's side frame
+        a = np.where(s < s_b, s, s_b + radius * np.sin(ang) + np.maximum(sb - ell, 0) * np.cos(ang))
+        w = radius * (1 - np.cos(ang)) + np.maximum(sb - ell, 0.0) * np.sin(ang)
+        xa = a - z * np.sin(ang)
+        xw = w + z * np.cos(ang)
+        return np.vstack([root[0] + sign * xa - x[0], root[1] + xw - x[1]])
+
+    V = fem.functionspace(robot.mesh, ("Lagrange", 2, (2,)))
+    u = fem.Function(V)
+    u.interpolate(bend)
+    h = arm.length / 80
+    with_patch = MidlineProbe(V, robot.arms, bonded={arm.name: s_b})(u)
+    from_root = MidlineProbe(V, robot.arms)(u)
+    name = f"active_length_{arm.name}"
+    assert with_patch[name] == pytest.approx(ell, abs=h)
+    assert from_root[name] - with_patch[name] == pytest.approx(s_b, abs=1e-12)

@@ -33,8 +33,11 @@ Definitions (DESIGN.md, after Wang, Mao et al., Commun. Mater. 1, 67 (2020)):
 
   - **active length** L_a = s of the last sample with |κ_k| ≥ κ* (0 when
     none): the arc length from the root to where the arm stops bending and
-    runs straight. A circular arc over [0, ℓ] followed by a straight part
-    gives ℓ to within h; a small-deflection cantilever under a uniform
+    runs straight. :class:`MidlineProbe` reports it from the end of the
+    bonded patch, L_a − s_b (s_b the midline length over the clamp, see
+    :func:`bonded_length`; 0 if L_a ≤ s_b): the deformed part of the arm,
+    not counting the glued strip it starts on. A circular arc over [0, ℓ]
+    followed by a straight part gives ℓ to within h; a small-deflection cantilever under a uniform
     distributed torque (κ ∝ L − s) gives (1 − η) L.
   - **folds**: the number of maximal runs of consecutive samples with
     |κ_k| ≥ κ* and one sign of κ that turn the tangent by at least
@@ -196,6 +199,44 @@ def midline_points(arm: Arm, samples: int = MIDLINE_SAMPLES) -> npt.NDArray[np.f
     return root[None, :] + s[:, None] * e[None, :]
 
 
+def bonded_length(arm: Arm, in_clamp: Any, offset: Sequence[float], gdim: int) -> float:
+    """Length (m) of the arm's midline, from its root, that lies over the bonded patch.
+
+    Args:
+        arm: the arm (mesh coordinates).
+        in_clamp: vectorised ``(x, y) -> bool`` of the robot outline (robot frame,
+            :meth:`magfem.geometry.robots.Outline.in_clamp`).
+        offset: the robot's ``position`` (m): mesh = robot frame + offset
+            ((px, pz) on a strip's (x, z) axes).
+        gdim: 3 (solid) or 2 (strip: the outline's y is 0 on the midline).
+
+    The midline is walked from the root; the end of the first run of bonded
+    points is located by bisection to 1e-9 of the arm length. 0 when the
+    root is not bonded.
+    """
+    root = np.asarray(arm.root, dtype=float)
+    e = np.asarray(arm.direction, dtype=float)
+
+    def bonded(s: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        pts = root[None, :] + np.atleast_1d(s)[:, None] * e[None, :]
+        x = pts[:, 0] - offset[0]
+        y = pts[:, 1] - offset[1] if gdim == 3 else 0.0 * x
+        return np.asarray(in_clamp(x, y), dtype=bool)
+
+    s = np.linspace(0.0, arm.length, MIDLINE_SAMPLES)
+    inside = bonded(s)
+    if not inside[0]:
+        return 0.0
+    if inside.all():
+        return float(arm.length)
+    k = int(np.argmin(inside))  # first sample off the patch
+    lo, hi = float(s[k - 1]), float(s[k])
+    while hi - lo > 1e-9 * arm.length:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if bonded(np.array([mid]))[0] else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
 class MidlineShape(NamedTuple):
     """Shape observables of one deformed arm midline (module docstring).
 
@@ -275,9 +316,14 @@ class MidlineProbe:
     """
 
     def __init__(
-        self, function_space: fem.FunctionSpace, arms: Sequence[Arm], samples: int = MIDLINE_SAMPLES
+        self,
+        function_space: fem.FunctionSpace,
+        arms: Sequence[Arm],
+        samples: int = MIDLINE_SAMPLES,
+        bonded: dict[str, float] | None = None,
     ):
         self.arms = list(arms)
+        self.bonded = dict(bonded or {})
         self.gdim = function_space.mesh.geometry.dim
         self.samples = samples
         self.points = np.vstack([midline_points(a, samples) for a in self.arms])
@@ -300,7 +346,8 @@ class MidlineProbe:
             normal = xi[:, 2] if self.gdim == 3 else xi[:, 1]
             s = np.linspace(0.0, arm.length * (1.0 - 1e-9), n)
             shape = midline_shape(s, along, normal, arm.length)
-            row[f"active_length_{arm.name}"] = shape.active_length
+            start = self.bonded.get(arm.name, 0.0)
+            row[f"active_length_{arm.name}"] = max(shape.active_length - start, 0.0)
             row[f"folds_{arm.name}"] = float(shape.folds)
             row[f"tip_normal_{arm.name}"] = shape.tip_normal
             row[f"spread_{arm.name}"] = shape.spread

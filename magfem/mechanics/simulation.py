@@ -173,7 +173,11 @@ class MembraneSimulation:
         self._angle_points = pts
         self._angle_eval = PointEvaluator(self.u.function_space, pts) if pts is not None else None
         self._unwrap = {name: AngleUnwrapper() for name in self.arms}
-        self.midline = MidlineProbe(self.u.function_space, robot_mesh.arms) if self.arms else None
+        self.midline = (
+            MidlineProbe(self.u.function_space, robot_mesh.arms, bonded=self._bonded_lengths())
+            if self.arms
+            else None
+        )
         self.strain_probe = StrainProbe(
             self.u, self._support_points(), radius=robot_mesh.thickness * (1 + 1e-6)
         )
@@ -184,6 +188,22 @@ class MembraneSimulation:
         self.steps = 0
         self.newton_iterations = 0
         self.cuts = 0
+
+    def _bonded_lengths(self) -> dict[str, float]:
+        """Arm name -> midline length over the bonded patch (m); {} when the clamp is free."""
+        robot = self.case.robot
+        if "clamp" not in self.case.environment.clamped or "clamp" not in self.robot.groups:
+            return {}
+        from magfem.geometry.robots import outline_of
+        from magfem.mechanics.observers import bonded_length
+
+        outline = outline_of(robot)
+        px, py, pz = robot.position
+        offset = (px, py) if self.gdim == 3 else (px, pz)
+        return {
+            arm.name: bonded_length(arm, outline.in_clamp, offset, self.gdim)
+            for arm in self.robot.arms
+        }
 
     def _support_points(self) -> npt.NDArray[np.float64]:
         """Reference coordinates (N, 3) of the clamped dofs, gathered from every rank (m)."""
