@@ -320,6 +320,7 @@ class MembraneSimulation:
         full = [np.array(c.value, dtype=float) for c in constants]
         t0 = self.case.time.start
         self.field.update(t0, side="left", u=self.u)
+        self._press_onto_ground()
         lam, step, accepted = 0.0, 1.0, 0
         try:
             while lam < 1.0:
@@ -353,6 +354,49 @@ class MembraneSimulation:
                 c.value = g  # type: ignore[assignment]
         self.log.append(f"gravity continuation: equilibrium at t₀ in {accepted} increment(s)")
         return accepted
+
+    def _press_onto_ground(self) -> float:
+        """Start a quasi-static settle from the resting penetration of a body lying on the ground.
+
+        The penalty ramp has zero slope at zero penetration (contact.py), so at
+        u = 0 a membrane lying on the ground has no contact stiffness in the
+        Newton tangent and the first gravity increment of a thin cantilever
+        goes straight through the ground (100 µm beam: ‖R‖ from 1e-3 to 3e6 N
+        in one iteration, every smaller increment likewise). Translating the
+        body down by δ* = r⁻¹(ρ |g| h / k_n), the penetration at which the
+        penalty carries the membrane's weight per area
+        (:func:`magfem.mechanics.reference.penalty_penetration`), starts Newton
+        where the tangent has the stiffness of the resting contact. Supports
+        stay at zero. Returns δ* (m; 0 when the body does not touch the
+        ground, there is no ground contact or gravity does not press down).
+        """
+        contact, robot = self.case.contact, self.robot
+        g = self.problem.gravity
+        if not contact.ground or g is None:
+            return 0.0
+        vertical = self.gdim - 1
+        g_v = float(np.asarray(g.value)[vertical])
+        x = robot.mesh.geometry.x[:, vertical]
+        lowest = self.comm.allreduce(float(x.min()) if x.size else np.inf, op=MPI.MIN)
+        if g_v >= 0.0 or lowest > contact.ground_height + 1e-9 * robot.thickness:
+            return 0.0
+        from magfem.mechanics.contact import create_ground_contact_law
+        from magfem.mechanics.reference import penalty_penetration
+
+        mat = self.case.material
+        law = create_ground_contact_law(
+            contact,
+            shear_modulus=mat.shear_modulus,
+            density=mat.density,
+            thickness=robot.thickness,
+        )
+        weight = mat.density * abs(g_v) * robot.thickness  # per area of the bottom face (Pa)
+        delta = penalty_penetration(weight, law.stiffness, law.onset)
+        for func in (self.integrator.u0, self.u):
+            func.x.array.reshape(-1, self.gdim)[:, vertical] -= delta
+            for bc in self.problem.bcs:
+                bc.set(func.x.array, alpha=0.0)
+        return delta
 
     def _next_step(self, t: float, end: float) -> tuple[float, bool]:
         """Length of the next step from t and whether it lands on a breakpoint."""
@@ -394,6 +438,9 @@ class MembraneSimulation:
             if self.problem.impact_absorber is not None:
                 # columns that just landed stop (inelastic impact, see contact.py)
                 self.problem.impact_absorber.apply(integ.u0, integ.v0, integ.a0)
+            if self.self_contact is not None:
+                # arm–arm impacts are inelastic too (self_contact.py)
+                self.self_contact.absorb_impacts(integ.u0, integ.v0, integ.a0)
         else:
             integ.restore()
         return report
