@@ -19,6 +19,8 @@ height of the mid-plane above its resting position, Newton iterations per
 step, step cuts, wall time.
 
     .venv/bin/python benchmarks/contact_convergence.py
+
+Part 1's cases and runs are those of the tests, from :mod:`magfem.mechanics.verification`.
 """
 
 from __future__ import annotations
@@ -33,83 +35,38 @@ from typing import Any
 
 import numpy as np
 import ufl
+from _common import Report
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
 from magfem import material
-from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
+from magfem.mechanics import verification as vc
 from magfem.mechanics.contact import (
     GroundContact,
     GroundContactLaw,
     ImpactAbsorber,
     contact_stiffness,
-    create_ground_contact_law,
     critical_contact_damping,
 )
 from magfem.mechanics.integrator import TimeIntegrator
 from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import SolverSpec
-from magfem.parallel import rank0_print
 
-H, LX, LY, MU, RHO, MU_F, G, V0 = 100e-6, 2e-3, 1e-3, 115e3, 2130.0, 0.5, 9.8, 0.02
-
-
-def _membrane(contact: dict[str, Any], time_: dict[str, Any]) -> Any:
-    return parse_case(
-        {
-            "name": "ground",
-            "robot": {"shape": "membrane", "thickness": H, "length": LX, "width": LY},
-            "mesh": {"size": "0.5 mm", "model": "strip"},
-            "material": {"shear_modulus": MU, "density": RHO, "remanence": 0.0},
-            "contact": {"ground": True, "friction": MU_F, **contact},
-            "environment": {"gravity": [0, 0, -G]},
-            "time": time_,
-            "output": {"csv": False, "vtx_every": 0, "plot": False},
-        }
-    )
-
-
-def _mean(comm: Any, integrand: Any, measure: Any) -> float:
-    num = comm.allreduce(fem.assemble_scalar(fem.form(integrand * measure)), op=MPI.SUM)
-    den = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * measure)), op=MPI.SUM)
-    return num / den
+MU_F, G, V0 = vc.FRICTION, vc.GRAVITY, vc.SLIDE_SPEED
 
 
 def resting(comm: Any, penalty: float) -> tuple[float, float]:
-    case = _membrane({"penalty": penalty}, {"end": 0.02, "step": 1e-3})
-    sim = MembraneSimulation(case, comm)
-    sim.run(None, progress=False)
-    robot = sim.robot
-    ds = ufl.Measure(
-        "ds", robot.mesh, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": 4}
-    )
-    pen = -_mean(comm, sim.u[1], ds(robot.groups["bottom"][1]))
-    law = create_ground_contact_law(case.contact, shear_modulus=MU, density=RHO, thickness=H)
-    return pen, ref.penalty_penetration(ref.resting_pressure(RHO, H, G), law.stiffness, law.onset)
+    """(FE penetration m, penalty-law closed form m) of the strip after 20 ms on the ground."""
+    run = vc.rest_on_ground(comm, "strip", {"penalty": penalty})
+    return run.penetration, run.expected
 
 
 def sliding(comm: Any, penalty: float, eps: float) -> tuple[float, float, float]:
-    case = _membrane(
-        {"penalty": penalty, "regularization_velocity": eps}, {"end": 0.008, "step": 2e-4}
-    )
-    sim = MembraneSimulation(case, comm)
-
-    def push(X: Any) -> Any:
-        v = np.zeros((2, X.shape[1]))
-        v[0] = V0
-        return v
-
-    sim.integrator.v0.interpolate(push)
+    """(deceleration m/s², distance m, wall s) of the strip sliding from V0 with v_ε = ``eps``."""
     t0 = time.perf_counter()
-    hist = sim.run(None, progress=False).history
-    wall = time.perf_counter() - t0
-    speed = np.sqrt(2 * hist["energy_kinetic"] / (RHO * H * LX * LY))
-    sel = speed > 10 * eps
-    decel = -np.polyfit(hist["time"][sel], speed[sel], 1)[0] if sel.sum() > 2 else math.nan
-    dx = ufl.Measure("dx", sim.robot.mesh, metadata={"quadrature_degree": 4})
-    return decel, _mean(comm, sim.u[0], dx), wall
+    decel, distance = vc.slide_on_ground(comm, eps, {"penalty": penalty})
+    return decel, distance, time.perf_counter() - t0
 
 
 def drop(
@@ -206,57 +163,55 @@ def drop(
 
 def main() -> None:
     comm = MPI.COMM_WORLD
-    lines = ["Resting penetration (strip membrane, 100 um): FE vs penalty closed form"]
-    lines.append(f"{'kappa':>6} {'FE m':>12} {'closed form m':>14} {'rel':>9}")
+    report = Report(
+        "Resting penetration (strip membrane, 100 um): FE vs penalty closed form",
+        f"{'kappa':>6} {'FE m':>12} {'closed form m':>14} {'rel':>9}",
+    )
     for kappa in (1.0, 10.0, 100.0):
         pen, exact = resting(comm, kappa)
-        lines.append(f"{kappa:6g} {pen:12.5e} {exact:14.5e} {pen / exact - 1:+9.1e}")
-        rank0_print(lines[-1])
+        report.row(f"{kappa:6g} {pen:12.5e} {exact:14.5e} {pen / exact - 1:+9.1e}")
     coulomb = V0**2 / (2 * MU_F * G)
-    lines += [
+    report.add(
         "",
         f"Sliding from {V0 * 1e3:g} mm/s: deceleration vs mu_f g = {MU_F * G:g} m/s^2; "
         f"distance vs Coulomb {coulomb:.5e} m",
         f"{'kappa':>6} {'v_eps m/s':>9} {'decel':>8} {'rel':>8} {'distance m':>12} "
         f"{'vs regul.':>9} {'vs Coulomb':>10} {'wall s':>6}",
-    ]
+    )
     for kappa, eps in ((10.0, 1e-2), (10.0, 1e-3), (10.0, 1e-4), (1.0, 1e-3), (100.0, 1e-3)):
         decel, dist, wall = sliding(comm, kappa, eps)
         reg = ref.regularized_sliding_distance(V0, MU_F, eps, G)
-        lines.append(
+        report.row(
             f"{kappa:6g} {eps:9.0e} {decel:8.4f} {decel / (MU_F * G) - 1:+8.2%} {dist:12.5e} "
             f"{dist / reg - 1:+9.2%} {dist / coulomb - 1:+10.2%} {wall:6.1f}"
         )
-        rank0_print(lines[-1])
-    lines += [
+    report.add(
         "",
         "Plate 4 x 1 x 0.1 mm dropped flat at 0.2 m/s (kappa 10, critical dashpot), after 1 ms",
         f"{'variant':14} {'dt s':>6} {'rebound m/s':>11} {'height um':>9} {'newton':>6} "
         f"{'cuts':>4} {'wall s':>6}",
-    ]
+    )
     for variant in ("stage", "end", "end+absorber"):
         for dt in (1e-4, 1e-5):
             r = drop(comm, variant, dt)
-            lines.append(
+            report.row(
                 f"{variant:14} {dt:6.0e} {r['rebound']:11.4f} {r['height'] * 1e6:9.3f} "
                 f"{r['newton']:6.2f} {r['cuts']:4d} {r['wall']:6.1f}"
             )
-            rank0_print(lines[-1])
-    lines += [
+    report.add(
         "",
         "The same plate resting on the ground, sliding at 20 mm/s: deceleration over 2 ms vs "
         f"mu_f g = {MU_F * G:g} m/s^2 (the absorber must leave resting contact alone)",
         f"{'variant':14} {'dt s':>6} {'decel':>8} {'rel':>8} {'newton':>6} {'cuts':>4}",
-    ]
+    )
     for variant in ("stage", "end", "end+absorber"):
         r = drop(comm, variant, 1e-4, gap=0.0, fall=0.0, slide=V0, t_end=2e-3)
         decel = (V0 - r["speed"]) / 2e-3
-        lines.append(
+        report.row(
             f"{variant:14} {1e-4:6.0e} {decel:8.4f} {decel / (MU_F * G) - 1:+8.2%} "
             f"{r['newton']:6.2f} {r['cuts']:4d}"
         )
-        rank0_print(lines[-1])
-    rank0_print("\n" + "\n".join(lines))
+    report.print()
 
 
 if __name__ == "__main__":

@@ -22,69 +22,27 @@ tests/test_verification_frequency.py), ρ∞ = 1, Δt = T/80.
     .venv/bin/python benchmarks/elastica_convergence.py            # everything (~10 min)
     .venv/bin/python benchmarks/elastica_convergence.py --quick    # strips only
     .venv/bin/python benchmarks/elastica_convergence.py --rigid    # part 1b only (~5 min)
+
+The cases, runs and reference observables are those of the tests, from
+:mod:`magfem.mechanics.verification`.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from typing import Any
 
 import numpy as np
+from _common import Report
 from mpi4py import MPI
 
 import magfem  # noqa: F401
 from magfem import material
-from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
-from magfem.mechanics.observers import TIP_OFFSET
-from magfem.parallel import rank0_print
+from magfem.mechanics import verification as vc
 
-H, L, CLAMP, MU, RHO, M = 80e-6, 7.5e-3, 1e-3, 115e3, 2130.0, 123e3
-B_MAX = 0.4e-3
-FRACTIONS = (0.25, 0.5, 0.75, 1.0)
-FREE = L - CLAMP
-
-
-def _case(model: str, size: float, width: float, plane: str, **tables: Any) -> Any:
-    data: dict[str, Any] = {
-        "name": "verification",
-        "robot": {
-            "shape": "rectangle",
-            "thickness": H,
-            "length": L,
-            "width": width,
-            "clamp_length": CLAMP,
-        },
-        "mesh": {"size": size, "model": model},
-        "material": {"shear_modulus": MU, "density": RHO, "remanence": M, "plane": plane},
-        "environment": {"gravity": [0, 0, 0]},
-        "output": {"csv": False, "vtx_every": 0, "plot": False},
-    }
-    data.update(tables)
-    return parse_case(data)
-
-
-def chord(load: float) -> float:
-    """Elastica tip observable (rad): chord over the last TIP_OFFSET·L."""
-    sol = ref.hard_magnetic_elastica(load, field_angle=math.pi)
-    s1 = 1.0 - 1e-9 * L / FREE
-    s0 = s1 - TIP_OFFSET * L / FREE
-    x, y = np.interp([s0, s1], sol.s, sol.x), np.interp([s0, s1], sol.s, sol.y)
-    return math.atan2(y[1] - y[0], x[1] - x[0])
-
-
-def rigid_root_block(width: float) -> dict[str, Any]:
-    """``[environment]`` fixing every node of x <= CLAMP (tests/test_verification_elastica.py)."""
-    radius = 1.0
-    return {
-        "gravity": [0, 0, 0],
-        "clamped": [],
-        "fixed_point": [CLAMP + 1e-6 - radius, width / 2, H / 2],
-        "fixed_radius": radius,
-    }
+MU, RHO, H, FREE = vc.SHEAR_MODULUS, vc.DENSITY, vc.THICKNESS, vc.FREE_LENGTH
 
 
 def static_row(
@@ -97,79 +55,36 @@ def static_row(
     *,
     bulk: float = 100 * MU,
     environment: dict[str, Any] | None = None,
-    b_max: float = B_MAX,
-    fractions: tuple[float, ...] = FRACTIONS,
-    step: float = 0.25,
+    **ramp: Any,
 ):
-    source = {
-        "kind": "uniform",
-        "flux_density": b_max,
-        "direction": [-1, 0, 0],
-        "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
-    }
-    case = _case(
-        model,
-        size,
-        width,
-        plane,
-        field={"sources": [source]},
-        time={"scheme": "quasi_static", "end": 1.0, "step": step},
-        material={
-            "shear_modulus": MU,
-            "bulk_modulus": bulk,
-            "density": RHO,
-            "remanence": M,
-            "plane": plane,
-        },
-        environment=environment or {"gravity": [0, 0, 0]},
-    )
+    """(FE angles °, errors °, elastica angles °, dofs, wall s) of one static run.
+
+    ``ramp``: ``b_max``, ``fractions``, ``step`` of :func:`verification.static_tip_angles`.
+    """
     t0 = time.perf_counter()
-    sim = MembraneSimulation(case, comm)
-    res = sim.run(None, progress=False)
+    sim, fields, fe = vc.static_tip_angles(
+        comm,
+        model=model,
+        size=size,
+        width=width,
+        plane=plane,
+        bulk_modulus=bulk,
+        environment=environment,
+        **ramp,
+    )
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    t, angle = res.history["time"], res.history["angle_arm"]
-    rows = [int(np.argmin(np.abs(t - f))) for f in fractions]  # adaptive steps: nearest
-    fe = angle[rows]
-    exact = np.array([chord(ref.elastica_load(M, f * b_max, FREE, H, modulus)) for f in t[rows]])
-    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
-    return np.degrees(fe), np.degrees(fe - exact), np.degrees(exact), dofs, wall
+    exact = vc.elastica_reference_angles(modulus, fields)
+    return np.degrees(fe), np.degrees(fe - exact), np.degrees(exact), vc.global_dofs(sim), wall
 
 
 def frequency_row(comm: Any, model: str, size: float, width: float, plane: str, f_ref: float):
-    period = 1.0 / f_ref
-    case = _case(
-        model,
-        size,
-        width,
-        plane,
-        time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
-        material={"shear_modulus": MU, "density": RHO, "remanence": 0.0, "plane": plane},
-    )
+    """(FE frequency Hz, dofs, wall s) of one free-vibration run."""
     t0 = time.perf_counter()
-    sim = MembraneSimulation(case, comm)
-    b = ref.cantilever_eigenvalue(1) / FREE
-    bl = b * FREE
-    sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
-    vertical = sim.gdim - 1
-
-    def push(X: Any) -> Any:
-        s = np.maximum(X[0] - CLAMP, 0.0)
-        phi = 0.5 * (np.cosh(b * s) - np.cos(b * s) - sig * (np.sinh(b * s) - np.sin(b * s)))
-        dphi = 0.5 * b * (np.sinh(b * s) + np.sin(b * s) - sig * (np.cosh(b * s) - np.cos(b * s)))
-        v = np.zeros((sim.gdim, X.shape[1]))
-        v[0] = -(X[vertical] - H / 2) * 1e-3 * dphi
-        v[vertical] = 1e-3 * phi
-        return v
-
-    sim.integrator.v0.interpolate(push)
-    res = sim.run(None, progress=False)
+    sim, f = vc.measured_frequency(
+        comm, model=model, size=size, width=width, plane=plane, expected=f_ref
+    )
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    t, a = res.history["time"], res.history["angle_arm"]
-    down = np.flatnonzero((a[:-1] > 0) & (a[1:] <= 0))
-    cross = t[down] - a[down] * (t[down + 1] - t[down]) / (a[down + 1] - a[down])
-    f = 1.0 / np.mean(np.diff(cross))
-    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
-    return f, dofs, wall
+    return f, vc.global_dofs(sim), wall
 
 
 def rigid_tables(comm: Any) -> None:
@@ -178,18 +93,18 @@ def rigid_tables(comm: Any) -> None:
     E = ref.young_modulus(MU, soft)
     plate = material.plane_strain_modulus(MU, soft)
     head = f"{'model':30} {'size mm':>7} {'dofs':>6} {'wall s':>6}  FE angle° (error°) per load"
-    lines = [
+    report = Report(
         "Rigid root block, K = mu (nu = 1/8), vs the hard-magnetic elastica; strips at "
         "B = 0.1, 0.2, 0.3, 0.4 mT, solid at 0.1, 0.2 mT",
         head,
-    ]
+    )
     runs: list[tuple[str, str, float, float, Any, list[float], dict[str, Any]]] = [
         (
             "strip, rigid block",
             "strip",
             2e-3,
             plate,
-            rigid_root_block(2e-3),
+            vc.rigid_root_block(2e-3),
             [0.5e-3, 0.25e-3, 0.125e-3, 0.0625e-3],
             {},
         ),
@@ -207,7 +122,7 @@ def rigid_tables(comm: Any) -> None:
             "solid",
             0.25e-3,
             E,
-            rigid_root_block(0.25e-3),
+            vc.rigid_root_block(0.25e-3),
             [0.25e-3, 0.125e-3, 0.0625e-3],
             {"b_max": 0.2e-3, "fractions": (0.5, 1.0), "step": 0.125},
         ),
@@ -219,22 +134,21 @@ def rigid_tables(comm: Any) -> None:
                 comm, model, size, width, "strain", modulus, bulk=soft, environment=env, **extra
             )
             cells = "  ".join(f"{a:7.3f} ({e:+.4f})" for a, e in zip(fe, err, strict=True))
-            lines.append(f"{title[:30]:30} {size * 1e3:7.4g} {dofs:6d} {wall:6.1f}  {cells}")
-            rank0_print(lines[-1])
+            report.row(f"{title[:30]:30} {size * 1e3:7.4g} {dofs:6d} {wall:6.1f}  {cells}")
             if model == "solid":
                 solid_errors.append(err)
-        lines.append(
+        report.add(
             f"{'':30} {'elastica':>7} {'':6} {'':6}  " + "  ".join(f"{a:7.3f}" for a in exact)
         )
     e = np.array(solid_errors)  # (3 levels, loads), degrees, halving size
     # the finest level stands in for the converged 3D solution: e - e[-1] is the
     # discretisation part of each error, e[-1] the 3D continuum's offset from the rod model
-    lines.append(
+    report.add(
         "3D: error minus the finest level's, per level: "
         + ";  ".join(", ".join(f"{x:+.4f}" for x in row) for row in e[:-1] - e[-1])
         + f"  (finest level: {', '.join(f'{x:+.4f}' for x in e[-1])}°)"
     )
-    rank0_print("\n" + "\n".join(lines))
+    report.print()
 
 
 def main() -> None:
@@ -255,29 +169,28 @@ def main() -> None:
     if not args.quick:
         configs.append(("solid, 0.25 mm wide", "solid", 0.25e-3, "strain", E, [0.25e-3, 0.125e-3]))
         configs.append(("solid, 2 mm wide (vs plate)", "solid", 2e-3, "strain", plate, [1e-3]))
-    lines = [
+    report = Report(
         "Static tip angle vs the hard-magnetic elastica at B = 0.1, 0.2, 0.3, 0.4 mT",
         f"{'model':28} {'size mm':>7} {'dofs':>6} {'wall s':>6}  FE angle° (error°) per load",
-    ]
+    )
     for title, model, width, plane, modulus, sizes in configs:
         for size in sizes:
             fe, err, exact, dofs, wall = static_row(comm, model, size, width, plane, modulus)
             cells = "  ".join(f"{a:7.3f} ({e:+.3f})" for a, e in zip(fe, err, strict=True))
-            lines.append(f"{title:28} {size * 1e3:7.3g} {dofs:6d} {wall:6.1f}  {cells}")
-            rank0_print(lines[-1])
-        lines.append(
+            report.row(f"{title:28} {size * 1e3:7.3g} {dofs:6d} {wall:6.1f}  {cells}")
+        report.add(
             f"{'':28} {'elastica':>7} {'':6} {'':6}  " + "  ".join(f"{a:7.3f}" for a in exact)
         )
     f_plate = ref.cantilever_frequency(E / (1 - nu**2), RHO, H, FREE)
     f_beam = ref.cantilever_frequency(E, RHO, H, FREE)
     f_stress = ref.cantilever_frequency(3 * MU, RHO, H, FREE)
-    lines += [
+    report.add(
         "",
         f"First bending frequency: Euler-Bernoulli plate {f_plate:.4f} Hz, beam (E) "
         f"{f_beam:.4f} Hz, beam (3 mu) {f_stress:.4f} Hz",
         f"{'model':28} {'size mm':>7} {'dofs':>6} {'wall s':>6} {'f FE Hz':>8} {'reference':>9} "
         f"{'error':>8}",
-    ]
+    )
     fconfigs: list[tuple[str, str, float, str, float, list[float]]] = [
         ("strip, plane strain", "strip", 2e-3, "strain", f_plate, [1e-3, 0.5e-3]),
         ("strip, plane stress", "strip", 2e-3, "stress", f_stress, [1e-3, 0.5e-3]),
@@ -288,12 +201,11 @@ def main() -> None:
     for title, model, width, plane, f_ref, sizes in fconfigs:
         for size in sizes:
             f, dofs, wall = frequency_row(comm, model, size, width, plane, f_ref)
-            lines.append(
+            report.row(
                 f"{title:28} {size * 1e3:7.3g} {dofs:6d} {wall:6.1f} {f:8.4f} {f_ref:9.4f} "
                 f"{f / f_ref - 1:+8.2%}"
             )
-            rank0_print(lines[-1])
-    rank0_print("\n" + "\n".join(lines))
+    report.print()
 
 
 if __name__ == "__main__":

@@ -15,48 +15,18 @@ Measured (docs/verification.md, ``python benchmarks/contact_convergence.py``):
 penetration within 5e-5 (relative) of the closed form after 20 ms of
 settling; deceleration +0.3 % off μ_f g (fit while v > 10 v_ε); distance
 +0.07 % off the regularised closed form; distance against Coulomb +44 %,
-+1.1 %, +0.07 % for v_ε = 10, 1, 0.1 mm/s.
++1.1 %, +0.07 % for v_ε = 10, 1, 0.1 mm/s. The case and the runs:
+:mod:`magfem.mechanics.verification` (shared with benchmarks/contact_convergence.py).
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-import numpy as np
 import pytest
-import ufl
-from dolfinx import fem
-from mpi4py import MPI
 
-from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
-from magfem.mechanics.contact import create_ground_contact_law
+from magfem.mechanics import verification as vc
 
-H, LX, LY, MU, RHO, MU_F, G = 100e-6, 2e-3, 1e-3, 115e3, 2130.0, 0.5, 9.8
-V0 = 0.02  # m/s
-
-
-def _membrane(model: str, contact: dict[str, Any], time: dict[str, Any]) -> Any:
-    return parse_case(
-        {
-            "name": "ground",
-            "robot": {"shape": "membrane", "thickness": H, "length": LX, "width": LY},
-            "mesh": {"size": "0.5 mm", "model": model},
-            "material": {"shear_modulus": MU, "density": RHO, "remanence": 0.0},
-            "contact": {"ground": True, "friction": MU_F, **contact},
-            "environment": {"gravity": [0, 0, -G]},
-            "time": time,
-            "output": {"csv": False, "vtx_every": 0, "plot": False},
-        }
-    )
-
-
-def _mean(sim: MembraneSimulation, integrand: Any, measure: Any) -> float:
-    comm = sim.comm
-    num = comm.allreduce(fem.assemble_scalar(fem.form(integrand * measure)), op=MPI.SUM)
-    den = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * measure)), op=MPI.SUM)
-    return num / den
+MU_F, G, V0 = vc.FRICTION, vc.GRAVITY, vc.SLIDE_SPEED
 
 
 @pytest.mark.parametrize(
@@ -68,49 +38,16 @@ def _mean(sim: MembraneSimulation, integrand: Any, measure: Any) -> float:
     ],
 )
 def test_resting_membrane_penetrates_by_the_penalty_law(comm, model, penalty, onset):
-    case = _membrane(
-        model, {"penalty": penalty, "penalty_onset": onset}, {"end": 0.02, "step": 1e-3}
-    )
-    sim = MembraneSimulation(case, comm)
-    history = sim.run(None, progress=False).history
-    vertical = sim.gdim - 1
-    robot = sim.robot
-    ds = ufl.Measure(
-        "ds", robot.mesh, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": 4}
-    )
-    penetration = -_mean(sim, sim.u[vertical], ds(robot.groups["bottom"][1]))
-    law = create_ground_contact_law(case.contact, shear_modulus=MU, density=RHO, thickness=H)
-    expected = ref.penalty_penetration(ref.resting_pressure(RHO, H, G), law.stiffness, law.onset)
+    run = vc.rest_on_ground(comm, model, {"penalty": penalty, "penalty_onset": onset})
     # measured |rel| <= 5e-5 (the last of the settling transient); 1e-3 leaves margin
-    assert penetration == pytest.approx(expected, rel=1e-3)
-    weight = RHO * G * H * LX * LY
-    assert history["contact_force"][-1] == pytest.approx(weight, rel=1e-3)
+    assert run.penetration == pytest.approx(run.expected, rel=1e-3)
+    assert run.contact_force == pytest.approx(run.weight, rel=1e-3)
 
 
-def _slide(comm: Any, regularization_velocity: float) -> tuple[float, float]:
+def _slide(comm, regularization_velocity: float) -> tuple[float, float]:
     """(deceleration m/s² while v > 10 v_ε (NaN if never), distance slid m) of the strip."""
-    case = _membrane(
-        "strip",
-        # the ℓ/Δt stick regularisation off: this checks the v_ε law on its own
-        {"regularization_velocity": regularization_velocity, "slip_length": 0.0},
-        {"end": 0.008, "step": 2e-4},
-    )
-    sim = MembraneSimulation(case, comm)
-
-    def push(X: Any) -> Any:
-        v = np.zeros((sim.gdim, X.shape[1]))
-        v[0] = V0
-        return v
-
-    sim.integrator.v0.interpolate(push)
-    history = sim.run(None, progress=False).history
-    mass = RHO * H * LX  # per unit width (strip)
-    speed = np.sqrt(2 * history["energy_kinetic"] / (mass * LY))
-    t = history["time"]
-    sliding = speed > 10 * regularization_velocity
-    deceleration = -np.polyfit(t[sliding], speed[sliding], 1)[0] if sliding.sum() > 2 else np.nan
-    dx = ufl.Measure("dx", sim.robot.mesh, metadata={"quadrature_degree": 4})
-    return float(deceleration), _mean(sim, sim.u[0], dx)
+    # the ℓ/Δt stick regularisation off: this checks the v_ε law on its own
+    return vc.slide_on_ground(comm, regularization_velocity, {"slip_length": 0.0})
 
 
 def test_sliding_membrane_decelerates_at_mu_g_and_converges_to_coulomb(comm):

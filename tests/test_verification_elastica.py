@@ -6,7 +6,8 @@ A rectangular arm (80 µm, μ = 115 kPa, M = 123 kA/m through the thickness,
 :func:`magfem.mechanics.reference.hard_magnetic_elastica` for the free
 length L − clamp_length, observed exactly like the simulation (the chord over
 the last TIP_OFFSET of the arm). Loads λ = 12 M B L²/(E' h²) from 2 to 9
-(tip angles 47°–80°).
+(tip angles 47°–80°). The case and the runs: :mod:`magfem.mechanics.verification`
+(shared with benchmarks/elastica_convergence.py).
 
 Measured (``python benchmarks/elastica_convergence.py``, docs/verification.md):
 plane-strain strip errors −4.98/−7.46/−7.35/−6.53° (2 mm), ≈ −1° (1 mm),
@@ -23,109 +24,28 @@ level confirms it has converged).
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import numpy as np
 import pytest
 
 from magfem import material
-from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
-from magfem.mechanics.observers import TIP_OFFSET
+from magfem.mechanics import verification as vc
+from magfem.mechanics.verification import elastica_reference_angles as reference_angles
+from magfem.mechanics.verification import rigid_root_block
 
-H, L, CLAMP, MU, M = 80e-6, 7.5e-3, 1e-3, 115e3, 123e3
-B_MAX = 0.4e-3  # T; the ramp is sampled at 1/4, 2/4, 3/4, 1 of it
-FRACTIONS = (0.25, 0.5, 0.75, 1.0)
-
-
-def elastica_chord_angle(load: float) -> float:
-    """Reference observable (rad): angle of the chord over the last TIP_OFFSET·L of the arm."""
-    sol = ref.hard_magnetic_elastica(load, field_angle=math.pi)
-    free = L - CLAMP
-    s1 = 1.0 - 1e-9 * L / free
-    s0 = s1 - TIP_OFFSET * L / free
-    x = np.interp([s0, s1], sol.s, sol.x)
-    y = np.interp([s0, s1], sol.s, sol.y)
-    return math.atan2(y[1] - y[0], x[1] - x[0])
+CLAMP, MU = vc.CLAMP_LENGTH, vc.SHEAR_MODULUS
 
 
-def rigid_root_block(width: float) -> dict[str, Any]:
-    """``[environment]`` that fixes every node with x <= CLAMP (the whole root block, u = 0).
+def static_tip_angles(comm, **kwargs):
+    """(B in T, tip angles in rad) of :func:`verification.static_tip_angles`.
 
-    Through the public ``fixed_point``/``fixed_radius`` support: a ball of
-    radius R = 1 m whose surface crosses the arm at x = CLAMP + 1 µm. Over the
-    section (|y − w/2| <= w/2, |z − h/2| <= h/2) the sphere departs from the
-    plane by at most (w² + h²)/(8R) < 10 nm, far below the 1 µm margin and
-    the >= 31 µm distance to the next node row (P2 at size >= 62.5 µm).
-    Strip meshes use (x, z) of the point.
+    With a rigid root block (``environment`` with ``fixed_point``) it also
+    checks that the support is what it claims: every node of x <= CLAMP is
+    fixed, and only those.
     """
-    radius = 1.0
-    return {
-        "gravity": [0, 0, 0],
-        "clamped": [],
-        "fixed_point": [CLAMP + 1e-6 - radius, width / 2, H / 2],
-        "fixed_radius": radius,
-    }
-
-
-def static_tip_angles(
-    comm: Any,
-    *,
-    model: str,
-    size: float,
-    width: float,
-    plane: str,
-    b_max: float = B_MAX,
-    fractions: tuple[float, ...] = FRACTIONS,
-    bulk_modulus: float = 100 * MU,
-    environment: dict[str, Any] | None = None,
-    step: float | None = None,
-) -> Any:
-    """(B in T, tip angles in rad) of the accepted steps nearest ``fractions`` of the ramp.
-
-    Adaptive steps may not land on the fractions exactly; the reference is
-    then evaluated at the field the step did reach (B = t × b_max).
-    ``environment`` replaces the default support (the bonded ``clamp`` patch);
-    ``step`` is the first quasi-static step (default: the first fraction).
-    """
-    case = parse_case(
-        {
-            "name": "elastica",
-            "robot": {
-                "shape": "rectangle",
-                "thickness": H,
-                "length": L,
-                "width": width,
-                "clamp_length": CLAMP,
-            },
-            "mesh": {"size": size, "model": model},
-            "material": {
-                "shear_modulus": MU,
-                "bulk_modulus": bulk_modulus,
-                "density": 2130.0,
-                "remanence": M,
-                "plane": plane,
-            },
-            "field": {
-                "sources": [
-                    {
-                        "kind": "uniform",
-                        "flux_density": b_max,
-                        "direction": [-1, 0, 0],
-                        "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
-                    }
-                ]
-            },
-            "environment": environment or {"gravity": [0, 0, 0]},
-            "time": {"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
-            "output": {"csv": False, "vtx_every": 0, "plot": False},
-        }
-    )
-    sim = MembraneSimulation(case, comm)
+    sim, fields, angles = vc.static_tip_angles(comm, **kwargs)
+    environment = kwargs.get("environment")
     if environment is not None and environment.get("fixed_point") is not None:
-        # the support is what it claims: every node of x <= CLAMP, and only those
         V = sim.u.function_space
         x = V.tabulate_dof_coordinates()[:, 0]
         bs = V.dofmap.index_map_bs
@@ -133,15 +53,7 @@ def static_tip_angles(
         for bc in sim.problem.bcs:
             fixed[bc.dof_indices()[0] // bs] = True
         assert np.array_equal(fixed, x <= CLAMP * (1 + 1e-9))
-    history = sim.run(None, progress=False).history
-    t, angle = history["time"], history["angle_arm"]
-    rows = [int(np.argmin(np.abs(t - f))) for f in fractions]
-    return t[rows] * b_max, angle[rows]
-
-
-def reference_angles(modulus: float, fields: Any) -> Any:
-    loads = [ref.elastica_load(M, b, L - CLAMP, H, modulus) for b in fields]
-    return np.array([elastica_chord_angle(lam) for lam in loads])
+    return fields, angles
 
 
 def test_strip_plane_strain_converges_to_elastica(comm):

@@ -13,7 +13,9 @@ the plate modulus E/(1 − ν²) for plane strain (an arm much wider than
 thick in cylindrical bending) and 3μ for the strip's plane-stress law
 (whose Young's modulus is that of the incompressible limit, see
 :mod:`magfem.material`); the two differ by 15 %, so the plate correction
-is what decides the answer.
+is what decides the answer. The case, the push and the frequency
+measurement: :mod:`magfem.mechanics.verification` (shared with
+benchmarks/elastica_convergence.py).
 
 Measured (docs/verification.md): plane strain +0.92 % (1 mm), +0.08 %
 (0.5 mm; +0.12 % at Δt = T/160: the remaining error is the mesh's, the
@@ -23,71 +25,17 @@ plane stress −0.25 % (0.5 mm).
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
-import numpy as np
 import pytest
 
-from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
+from magfem.mechanics import verification as vc
 
-H, L, CLAMP, MU, RHO = 80e-6, 7.5e-3, 1e-3, 115e3, 2130.0
-FREE = L - CLAMP
-
-
-def first_mode(x: Any) -> tuple[Any, Any]:
-    """Clamped–free mode φ₁ and φ₁' (1/m) of the free length, zero on the clamp (x <= CLAMP)."""
-    b = ref.cantilever_eigenvalue(1) / FREE
-    bl = b * FREE
-    sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
-    s = np.maximum(x - CLAMP, 0.0)
-    phi = 0.5 * (np.cosh(b * s) - np.cos(b * s) - sig * (np.sinh(b * s) - np.sin(b * s)))
-    dphi = 0.5 * b * (np.sinh(b * s) + np.sin(b * s) - sig * (np.cosh(b * s) - np.cos(b * s)))
-    return phi, dphi
+H, MU, RHO, FREE = vc.THICKNESS, vc.SHEAR_MODULUS, vc.DENSITY, vc.FREE_LENGTH
 
 
-def measured_frequency(
-    comm: Any, *, model: str, size: float, plane: str, width: float, expected: float
-) -> float:
+def measured_frequency(comm, **kwargs) -> float:
     """First bending frequency (Hz) of the FE cantilever after a modal push."""
-    period = 1.0 / expected
-    case = parse_case(
-        {
-            "name": "frequency",
-            "robot": {
-                "shape": "rectangle",
-                "thickness": H,
-                "length": L,
-                "width": width,
-                "clamp_length": CLAMP,
-            },
-            "mesh": {"size": size, "model": model},
-            "material": {"shear_modulus": MU, "density": RHO, "remanence": 0.0, "plane": plane},
-            "environment": {"gravity": [0, 0, 0]},
-            "time": {"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
-            "output": {"csv": False, "vtx_every": 0, "plot": False},
-        }
-    )
-    sim = MembraneSimulation(case, comm)
-    vertical = sim.gdim - 1
-    amplitude = 1e-3  # m/s
-
-    def push(X: Any) -> Any:
-        phi, dphi = first_mode(X[0])
-        v = np.zeros((sim.gdim, X.shape[1]))
-        v[0] = -(X[vertical] - H / 2) * amplitude * dphi
-        v[vertical] = amplitude * phi
-        return v
-
-    sim.integrator.v0.interpolate(push)
-    history = sim.run(None, progress=False).history
-    t, a = history["time"], history["angle_arm"]
-    down = np.flatnonzero((a[:-1] > 0) & (a[1:] <= 0))
-    crossings = t[down] - a[down] * (t[down + 1] - t[down]) / (a[down + 1] - a[down])
-    assert crossings.size >= 2, "expected two periods of free vibration"
-    return float(1.0 / np.mean(np.diff(crossings)))
+    return vc.measured_frequency(comm, **kwargs)[1]
 
 
 def test_plane_strain_strip_matches_plate_frequency(comm):

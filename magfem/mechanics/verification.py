@@ -1,0 +1,389 @@
+"""Verification cases shared by tests/test_verification_*.py and benchmarks/.
+
+One place for the case tables the mechanics is verified with, parameterised
+by what the tests and the convergence benchmarks vary (mesh model and size,
+section, plane law, supports), the runs built on them and the observables
+compared with :mod:`magfem.mechanics.reference`:
+
+* the cantilever: an 80 µm arm, 7.5 mm long with a 1 mm root strip bonded to
+  the substrate (``clamp_length``), μ = 115 kPa, ρ = 2130 kg/m³,
+  M = 123 kA/m through the thickness. Static: a uniform field along −x (the
+  sign that lifts the arm) ramped quasi-statically, against the hard-magnetic
+  elastica (:func:`static_tip_angles`, :func:`elastica_reference_angles`).
+  Dynamic: no field, a push with the velocity of the first Euler–Bernoulli
+  mode, the frequency of the free vibration (:func:`measured_frequency`).
+* the ground membrane: a free 2 × 1 mm, 100 µm membrane (μ = 115 kPa,
+  ρ = 2130 kg/m³, no magnetization) on the ground under gravity, resting
+  (:func:`rest_on_ground`) or sliding (:func:`slide_on_ground`).
+
+SI units throughout. The runs are collective: call them on every rank of
+``comm``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from magfem.case import Case, parse_case
+from magfem.mechanics import reference as ref
+from magfem.mechanics.contact import create_ground_contact_law
+from magfem.mechanics.observers import TIP_OFFSET
+from magfem.mechanics.simulation import MembraneSimulation
+
+# --- cantilever --------------------------------------------------------------------------------
+
+THICKNESS = 80e-6  # m
+LENGTH = 7.5e-3  # m, root strip included
+CLAMP_LENGTH = 1e-3  # m, bonded root strip
+FREE_LENGTH = LENGTH - CLAMP_LENGTH  # m, the rod of the reference solutions
+SHEAR_MODULUS = 115e3  # Pa
+DENSITY = 2130.0  # kg/m³
+REMANENCE = 123e3  # A/m, through the thickness
+B_MAX = 0.4e-3  # T, end of the static ramp
+FRACTIONS = (0.25, 0.5, 0.75, 1.0)  # of the ramp, where the static angles are sampled
+
+_NO_OUTPUT = {"csv": False, "vtx_every": 0, "plot": False}
+_NO_GRAVITY = {"gravity": [0, 0, 0]}
+
+
+def cantilever_case(
+    model: str,
+    size: float,
+    width: float,
+    plane: str,
+    *,
+    name: str = "cantilever",
+    remanence: float = REMANENCE,
+    bulk_modulus: float | None = None,
+    environment: dict[str, Any] | None = None,
+    **tables: Any,
+) -> Case:
+    """The cantilever's case; ``tables`` (``field``, ``time``, ...) are added as they are.
+
+    Args:
+        model: ``mesh.model`` (``strip``, ``solid``, ...). size: mesh size (m).
+        width: arm width (m). plane: ``material.plane`` (``strain``/``stress``).
+        remanence: M (A/m). bulk_modulus: K (Pa); None keeps the case default (100 μ).
+        environment: the ``[environment]`` table; default no gravity and the
+            bonded root strip as the support.
+    """
+    material: dict[str, Any] = {
+        "shear_modulus": SHEAR_MODULUS,
+        "density": DENSITY,
+        "remanence": remanence,
+        "plane": plane,
+    }
+    if bulk_modulus is not None:
+        material["bulk_modulus"] = bulk_modulus
+    return parse_case(
+        {
+            "name": name,
+            "robot": {
+                "shape": "rectangle",
+                "thickness": THICKNESS,
+                "length": LENGTH,
+                "width": width,
+                "clamp_length": CLAMP_LENGTH,
+            },
+            "mesh": {"size": size, "model": model},
+            "material": material,
+            "environment": environment or _NO_GRAVITY,
+            "output": _NO_OUTPUT,
+            **tables,
+        }
+    )
+
+
+def field_ramp(b_max: float) -> dict[str, Any]:
+    """A uniform source along −x whose flux density rises linearly from 0 at t = 0 to ``b_max``
+    (T) at t = 1 (the quasi-static load parameter)."""
+    return {
+        "kind": "uniform",
+        "flux_density": b_max,
+        "direction": [-1, 0, 0],
+        "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
+    }
+
+
+def rigid_root_block(width: float) -> dict[str, Any]:
+    """``[environment]`` that fixes every node with x <= CLAMP_LENGTH (the whole root block, u = 0).
+
+    Through the public ``fixed_point``/``fixed_radius`` support: a ball of
+    radius R = 1 m whose surface crosses the arm at x = CLAMP_LENGTH + 1 µm.
+    Over the section (|y − w/2| <= w/2, |z − h/2| <= h/2) the sphere departs
+    from the plane by at most (w² + h²)/(8R) < 10 nm, far below the 1 µm
+    margin and the >= 31 µm distance to the next node row (P2 at size >=
+    62.5 µm). Strip meshes use (x, z) of the point.
+    """
+    radius = 1.0
+    return {
+        "gravity": [0, 0, 0],
+        "clamped": [],
+        "fixed_point": [CLAMP_LENGTH + 1e-6 - radius, width / 2, THICKNESS / 2],
+        "fixed_radius": radius,
+    }
+
+
+def elastica_chord_angle(load: float) -> float:
+    """Reference observable (rad): angle of the chord over the last TIP_OFFSET·L of the arm.
+
+    The hard-magnetic elastica of the free length at load λ, field along −x,
+    observed like the simulation's ``angle_arm`` (TIP_OFFSET is a fraction of
+    the whole length L, root strip included).
+    """
+    sol = ref.hard_magnetic_elastica(load, field_angle=math.pi)
+    s1 = 1.0 - 1e-9 * LENGTH / FREE_LENGTH
+    s0 = s1 - TIP_OFFSET * LENGTH / FREE_LENGTH
+    x = np.interp([s0, s1], sol.s, sol.x)
+    y = np.interp([s0, s1], sol.s, sol.y)
+    return math.atan2(y[1] - y[0], x[1] - x[0])
+
+
+def elastica_reference_angles(modulus: float, fields: Any) -> npt.NDArray[np.float64]:
+    """Elastica chord angles (rad) at the flux densities ``fields`` (T), bending modulus E' (Pa)."""
+    loads = [ref.elastica_load(REMANENCE, b, FREE_LENGTH, THICKNESS, modulus) for b in fields]
+    return np.array([elastica_chord_angle(lam) for lam in loads])
+
+
+def static_tip_angles(
+    comm: MPI.Comm,
+    *,
+    model: str,
+    size: float,
+    width: float,
+    plane: str,
+    b_max: float = B_MAX,
+    fractions: tuple[float, ...] = FRACTIONS,
+    bulk_modulus: float = 100 * SHEAR_MODULUS,
+    environment: dict[str, Any] | None = None,
+    step: float | None = None,
+) -> tuple[MembraneSimulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
+
+    Adaptive steps may not land on the fractions exactly; the reference is
+    then evaluated at the field the step did reach (B = t × b_max).
+    ``environment`` replaces the default support (the bonded root strip);
+    ``step`` is the first quasi-static step (default: the first fraction).
+    """
+    case = cantilever_case(
+        model,
+        size,
+        width,
+        plane,
+        name="elastica",
+        bulk_modulus=bulk_modulus,
+        environment=environment,
+        field={"sources": [field_ramp(b_max)]},
+        time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
+    )
+    sim = MembraneSimulation(case, comm)
+    history = sim.run(None, progress=False).history
+    t, angle = history["time"], history["angle_arm"]
+    rows = [int(np.argmin(np.abs(t - f))) for f in fractions]
+    return sim, t[rows] * b_max, angle[rows]
+
+
+def first_mode(x: Any) -> tuple[Any, Any]:
+    """Clamped–free mode φ₁ (1) and φ₁' (1/m) at x (m), zero on the root x <= CLAMP_LENGTH.
+
+    Normalised to φ₁ = 1 at the tip (Euler–Bernoulli; eigenvalue from
+    :func:`reference.cantilever_eigenvalue`).
+    """
+    b = ref.cantilever_eigenvalue(1) / FREE_LENGTH
+    bl = b * FREE_LENGTH
+    sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
+    s = np.maximum(x - CLAMP_LENGTH, 0.0)
+    phi = 0.5 * (np.cosh(b * s) - np.cos(b * s) - sig * (np.sinh(b * s) - np.sin(b * s)))
+    dphi = 0.5 * b * (np.sinh(b * s) + np.sin(b * s) - sig * (np.cosh(b * s) - np.cos(b * s)))
+    return phi, dphi
+
+
+def free_vibration_frequency(time: Any, angle: Any) -> float:
+    """Frequency (Hz): inverse mean spacing of the downward zero crossings of ``angle(time)``.
+
+    Crossing times are interpolated linearly between samples.
+
+    Raises:
+        ValueError: fewer than two downward crossings (less than one period seen).
+    """
+    t, a = np.asarray(time), np.asarray(angle)
+    down = np.flatnonzero((a[:-1] > 0) & (a[1:] <= 0))
+    crossings = t[down] - a[down] * (t[down + 1] - t[down]) / (a[down + 1] - a[down])
+    if crossings.size < 2:
+        raise ValueError(
+            f"expected two periods of free vibration, found {crossings.size} downward crossing(s)"
+        )
+    return float(1.0 / np.mean(np.diff(crossings)))
+
+
+def measured_frequency(
+    comm: MPI.Comm,
+    *,
+    model: str,
+    size: float,
+    width: float,
+    plane: str,
+    expected: float,
+    amplitude: float = 1e-3,
+) -> tuple[MembraneSimulation, float]:
+    """(simulation, first bending frequency in Hz) of the unmagnetised cantilever, modal push.
+
+    The push is the velocity of the first mode with Kirchhoff kinematics:
+    v_z = A φ₁(x), v_x = −(z − h/2) A φ₁'(x), A = ``amplitude`` (m/s; 1 mm/s
+    gives a tip amplitude of ~0.4°, linear). Generalized-α with ρ∞ = 1 (no
+    numerical dissipation) at Δt = T/80 for 2.2 periods T = 1/``expected``.
+    """
+    period = 1.0 / expected
+    case = cantilever_case(
+        model,
+        size,
+        width,
+        plane,
+        name="frequency",
+        remanence=0.0,
+        time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
+    )
+    sim = MembraneSimulation(case, comm)
+    vertical = sim.gdim - 1
+
+    def push(X: Any) -> Any:
+        phi, dphi = first_mode(X[0])
+        v = np.zeros((sim.gdim, X.shape[1]))
+        v[0] = -(X[vertical] - THICKNESS / 2) * amplitude * dphi
+        v[vertical] = amplitude * phi
+        return v
+
+    sim.integrator.v0.interpolate(push)
+    history = sim.run(None, progress=False).history
+    return sim, free_vibration_frequency(history["time"], history["angle_arm"])
+
+
+def global_dofs(sim: MembraneSimulation) -> int:
+    """Number of displacement unknowns over all ranks."""
+    return int(sim.u.function_space.dofmap.index_map.size_global * sim.gdim)
+
+
+# --- ground membrane ---------------------------------------------------------------------------
+
+MEMBRANE_THICKNESS = 100e-6  # m
+MEMBRANE_LENGTH = 2e-3  # m, along x
+MEMBRANE_WIDTH = 1e-3  # m
+FRICTION = 0.5  # Coulomb coefficient μ_f
+GRAVITY = 9.8  # m/s²
+SLIDE_SPEED = 0.02  # m/s, initial speed of the sliding run
+
+
+def ground_membrane_case(model: str, contact: dict[str, Any], time: dict[str, Any]) -> Case:
+    """The membrane on the ground (0.5 mm mesh); ``contact`` adds to ``ground = true`` and μ_f."""
+    return parse_case(
+        {
+            "name": "ground",
+            "robot": {
+                "shape": "membrane",
+                "thickness": MEMBRANE_THICKNESS,
+                "length": MEMBRANE_LENGTH,
+                "width": MEMBRANE_WIDTH,
+            },
+            "mesh": {"size": "0.5 mm", "model": model},
+            "material": {"shear_modulus": SHEAR_MODULUS, "density": DENSITY, "remanence": 0.0},
+            "contact": {"ground": True, "friction": FRICTION, **contact},
+            "environment": {"gravity": [0, 0, -GRAVITY]},
+            "time": time,
+            "output": _NO_OUTPUT,
+        }
+    )
+
+
+def mean_value(comm: MPI.Comm, integrand: Any, measure: Any) -> float:
+    """Mean of a UFL expression over a measure (∫ f dμ / ∫ dμ, summed over the ranks)."""
+    num = comm.allreduce(fem.assemble_scalar(fem.form(integrand * measure)), op=MPI.SUM)
+    den = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * measure)), op=MPI.SUM)
+    return num / den
+
+
+class RestingRun(NamedTuple):
+    """The membrane after settling on the ground."""
+
+    penetration: float  # m, mean sinking of the bottom face below z = 0
+    expected: float  # m, closed form of the penalty law under the pressure ρ g h
+    contact_force: float  # N, total normal contact force at the end
+    weight: float  # N, ρ g h × area
+
+
+def rest_on_ground(
+    comm: MPI.Comm,
+    model: str,
+    contact: dict[str, Any],
+    *,
+    end: float = 0.02,
+    step: float = 1e-3,
+) -> RestingRun:
+    """Let the membrane settle for ``end`` (s) and compare its penetration with the penalty law.
+
+    Reference: :func:`reference.penalty_penetration` under
+    :func:`reference.resting_pressure`, with the law the case builds.
+    """
+    case = ground_membrane_case(model, contact, {"end": end, "step": step})
+    sim = MembraneSimulation(case, comm)
+    history = sim.run(None, progress=False).history
+    robot = sim.robot
+    ds = ufl.Measure(
+        "ds", robot.mesh, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": 4}
+    )
+    penetration = -mean_value(comm, sim.u[sim.gdim - 1], ds(robot.groups["bottom"][1]))
+    law = create_ground_contact_law(
+        case.contact, shear_modulus=SHEAR_MODULUS, density=DENSITY, thickness=MEMBRANE_THICKNESS
+    )
+    pressure = ref.resting_pressure(DENSITY, MEMBRANE_THICKNESS, GRAVITY)
+    return RestingRun(
+        penetration=penetration,
+        expected=ref.penalty_penetration(pressure, law.stiffness, law.onset),
+        contact_force=float(history["contact_force"][-1]),
+        weight=DENSITY * GRAVITY * MEMBRANE_THICKNESS * MEMBRANE_LENGTH * MEMBRANE_WIDTH,
+    )
+
+
+def slide_on_ground(
+    comm: MPI.Comm,
+    regularization_velocity: float,
+    contact: dict[str, Any],
+    *,
+    speed: float = SLIDE_SPEED,
+    end: float = 0.008,
+    step: float = 2e-4,
+) -> tuple[float, float]:
+    """(deceleration m/s² while v > 10 v_ε (NaN if never), distance slid m) of the strip membrane.
+
+    Started at ``speed`` (m/s) along x; ``contact`` adds to the contact table
+    beside ``regularization_velocity`` = v_ε (m/s). The speed comes from the
+    kinetic energy, the deceleration from a straight-line fit of it, the
+    distance is the mean x-displacement after ``end`` (s).
+    """
+    case = ground_membrane_case(
+        "strip",
+        {"regularization_velocity": regularization_velocity, **contact},
+        {"end": end, "step": step},
+    )
+    sim = MembraneSimulation(case, comm)
+
+    def push(X: Any) -> Any:
+        v = np.zeros((sim.gdim, X.shape[1]))
+        v[0] = speed
+        return v
+
+    sim.integrator.v0.interpolate(push)
+    history = sim.run(None, progress=False).history
+    mass = DENSITY * MEMBRANE_THICKNESS * MEMBRANE_LENGTH * MEMBRANE_WIDTH
+    v = np.sqrt(2 * history["energy_kinetic"] / mass)
+    t = history["time"]
+    sliding = v > 10 * regularization_velocity
+    deceleration = -np.polyfit(t[sliding], v[sliding], 1)[0] if sliding.sum() > 2 else np.nan
+    dx = ufl.Measure("dx", sim.robot.mesh, metadata={"quadrature_degree": 4})
+    return float(deceleration), mean_value(comm, sim.u[0], dx)
