@@ -50,6 +50,33 @@ class BoxRegion:
     rotation: tuple[tuple[float, ...], ...]
 
 
+def _name_pieces(
+    gmsh: Any, dim: int, names: Sequence[str], pieces: Sequence[Sequence[tuple[int, int]]]
+) -> list[int]:
+    """Physical groups after ``occ.fragment``: each source's pieces under its name, the rest "air".
+
+    Args:
+        dim: dimension of the regions (2: axisymmetric, 3: solid).
+        names: group name of each source (sources may share a name).
+        pieces: per source, the (dim, tag) pairs it became in the fragment
+            (``mapping[1:]`` of ``occ.fragment`` with the air region first).
+
+    Returns:
+        The sorted tags of all source pieces.
+    """
+    named: dict[str, list[int]] = {}
+    used: set[int] = set()
+    for name, piece in zip(names, pieces, strict=True):
+        tags = [t for d, t in piece if d == dim]
+        named.setdefault(name, []).extend(tags)
+        used.update(tags)
+    air = [t for d, t in gmsh.model.getEntities(dim) if t not in used]
+    for name, tags in named.items():
+        gmsh.model.addPhysicalGroup(dim, tags, name=name)
+    gmsh.model.addPhysicalGroup(dim, air, name="air")
+    return sorted(used)
+
+
 def _size_fields(
     gmsh: Any,
     dim: int,
@@ -142,17 +169,8 @@ def axisymmetric_builder(
         rects = [occ.addRectangle(g.r0, g.z0, 0, g.r1 - g.r0, g.z1 - g.z0) for g in regions]
         _, mapping = occ.fragment(half, [(2, t) for t in rects])
         occ.synchronize()
-        named: dict[str, list[int]] = {}
-        used: set[int] = set()
-        for g, m in zip(regions, mapping[1:], strict=True):
-            tags = [t for d, t in m if d == 2]
-            named.setdefault(g.name, []).extend(tags)
-            used.update(tags)
-        air = [t for d, t in gmsh.model.getEntities(2) if t not in used]
-        for name, tags in named.items():
-            gmsh.model.addPhysicalGroup(2, tags, name=name)
-        gmsh.model.addPhysicalGroup(2, air, name="air")
-        _size_fields(gmsh, 2, sorted(used), h_source, r_air, workspace, h_workspace)
+        used = _name_pieces(gmsh, 2, [g.name for g in regions], mapping[1:])
+        _size_fields(gmsh, 2, used, h_source, r_air, workspace, h_workspace)
         gmsh.model.mesh.generate(2)
 
     return build
@@ -197,17 +215,8 @@ def solid_builder(
             tags.append(t)
         _, mapping = occ.fragment([(3, ball)], [(3, t) for t in tags])
         occ.synchronize()
-        named: dict[str, list[int]] = {}
-        used: set[int] = set()
-        for b, m in zip(boxes, mapping[1:], strict=True):
-            vols = [t for d, t in m if d == 3]
-            named.setdefault(b.name, []).extend(vols)
-            used.update(vols)
-        air = [t for d, t in gmsh.model.getEntities(3) if t not in used]
-        for name, vols in named.items():
-            gmsh.model.addPhysicalGroup(3, vols, name=name)
-        gmsh.model.addPhysicalGroup(3, air, name="air")
-        surfaces = gmsh.model.getBoundary([(3, t) for t in sorted(used)], oriented=False)
+        used = _name_pieces(gmsh, 3, [b.name for b in boxes], mapping[1:])
+        surfaces = gmsh.model.getBoundary([(3, t) for t in used], oriented=False)
         _size_fields(
             gmsh, 3, [abs(s[1]) for s in surfaces], h_source, r_air, workspace, h_workspace
         )
