@@ -159,8 +159,6 @@ def thick_coil_field(
     Loop field integrated over the winding cross-section by composite
     Gauss–Legendre quadrature (``pieces`` × ``n`` nodes per direction).
     """
-    rho = np.atleast_1d(np.asarray(rho, dtype=float))
-    z = np.atleast_1d(np.asarray(z, dtype=float))
     ra, wa = _gauss(r1, r2, n, pieces)
     za, wz = _gauss(-length / 2, length / 2, n, pieces)
     J = turns * current / ((r2 - r1) * length)
@@ -190,8 +188,6 @@ def cylinder_magnet_field(
     pieces: int = 8,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(B_ρ, B_z), T, of an axially magnetised cylinder (equivalent current sheet Br/µ0)."""
-    rho = np.atleast_1d(np.asarray(rho, dtype=float))
-    z = np.atleast_1d(np.asarray(z, dtype=float))
     za, wz = _gauss(-length / 2, length / 2, n, pieces)
     return _sum_loops(np.full_like(za, radius), za, wz * remanence / MU0, rho, z)
 
@@ -199,8 +195,13 @@ def cylinder_magnet_field(
 def _sum_loops(
     a: np.ndarray, zc: np.ndarray, current: np.ndarray, rho: np.ndarray, z: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Σ_k loop_field(a_k, current_k, ρ, z − zc_k), vectorised in chunks of points."""
-    rho, z = np.broadcast_arrays(rho, z)
+    """Σ_k loop_field(a_k, current_k, ρ, z − zc_k), vectorised in chunks of points.
+
+    ρ and z (m) broadcast against each other; scalars give arrays of one point.
+    """
+    rho, z = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(rho, dtype=float)), np.atleast_1d(np.asarray(z, dtype=float))
+    )
     shape = rho.shape
     rho, z = rho.ravel(), z.ravel()
     br, bz = np.zeros(len(rho)), np.zeros(len(rho))
