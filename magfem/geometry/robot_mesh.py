@@ -217,6 +217,33 @@ def _cell_groups(gmsh: Any, outline: Outline, dim: int) -> dict[str, list[int]]:
     return cells
 
 
+def _facet_groups(gmsh: Any, outline: Outline, dim: int, thickness: float) -> dict[str, list[int]]:
+    """Named boundary facets (entities of dimension ``dim``) of the extruded robot.
+
+    The thickness (m) runs along gmsh axis ``dim``: z for the solid (facets
+    are surfaces, dim 2), y for the strip's side view (facets are lines,
+    dim 1, whose in-plane y is 0). A facet wholly below mid-thickness is the
+    bonded ``clamp`` (inside the outline's clamp patch) or ``bottom``, wholly
+    above ``top``; one across the thickness is a side face, named by the
+    outline's tip group at its centre of mass (other sides are left out).
+    """
+    half = 0.5 * thickness
+    facets: dict[str, list[int]] = {}
+    for _, f in gmsh.model.getEntities(dim):
+        p = _vertices(gmsh, dim, f)
+        x, y = p[:, 0], (p[:, 1] if dim == 2 else 0 * p[:, 0])
+        if np.all(p[:, dim] < half):
+            name = "clamp" if np.all(outline.in_clamp(x, y)) else "bottom"
+        elif np.all(p[:, dim] > half):
+            name = "top"
+        else:
+            cx, cy, _ = _com(gmsh, dim, f)
+            name = outline.tip_group(cx, cy if dim == 2 else 0.0) or ""
+        if name:
+            facets.setdefault(name, []).append(f)
+    return facets
+
+
 def _build_solid(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) -> _Plan:
     occ = gmsh.model.occ
     surfaces = _planar_outline(gmsh, outline)
@@ -231,19 +258,7 @@ def _build_solid(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
         recombine=True,  # quads -> hexahedra, triangles -> prisms (False would give tetrahedra)
     )
     occ.synchronize()
-    half = 0.5 * robot.thickness
-    facets: dict[str, list[int]] = {}
-    for _, f in gmsh.model.getEntities(2):
-        p = _vertices(gmsh, 2, f)
-        if np.all(p[:, 2] < half):
-            name = "clamp" if np.all(outline.in_clamp(p[:, 0], p[:, 1])) else "bottom"
-        elif np.all(p[:, 2] > half):
-            name = "top"
-        else:
-            x, y, _ = _com(gmsh, 2, f)
-            name = outline.tip_group(x, y) or ""
-        if name:
-            facets.setdefault(name, []).append(f)
+    facets = _facet_groups(gmsh, outline, 2, robot.thickness)
     return _Plan(3, _cell_groups(gmsh, outline, 3), facets, surfaces, 1, tips, curves)
 
 
@@ -275,18 +290,7 @@ def _build_strip(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
         recombine=spec.element == "hex",
     )
     occ.synchronize()
-    half = 0.5 * robot.thickness
-    facets: dict[str, list[int]] = {}
-    for _, c in gmsh.model.getEntities(1):
-        p = _vertices(gmsh, 1, c)
-        if np.all(p[:, 1] < half):
-            name = "clamp" if np.all(outline.in_clamp(p[:, 0], 0 * p[:, 0])) else "bottom"
-        elif np.all(p[:, 1] > half):
-            name = "top"
-        else:
-            name = outline.tip_group(float(np.mean(p[:, 0])), 0.0) or ""
-        if name:
-            facets.setdefault(name, []).append(c)
+    facets = _facet_groups(gmsh, outline, 1, robot.thickness)
     return _Plan(2, _cell_groups(gmsh, outline, 2), facets, [], 0, tip_pts, [])
 
 
