@@ -42,7 +42,8 @@ DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_halfperiod_
 [t₀, t₀ + n/f], n = 1/2, 1, 2, f the first periodic source's frequency: the
 first half period is the lift under the first field sign, before any reversal),
 ``final_angle_<arm>``;
-``max_strain``, ``max_energy_density`` (J/m³, ρE = 3με²/2),
+``max_strain``, ``max_bending_strain`` (κ h/2 of the sharpest midline bend),
+``max_energy_density`` (J/m³, ρE = 3με²/2),
 ``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step); the midline
 and speed entries of :func:`magfem.mechanics.observers.summarize_midline`
 (``final_active_length_<arm>`` m, ``max_folds_<arm>``, ``max_tip_normal_<arm>``,
@@ -246,6 +247,8 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     out |= summarize_midline(cols)
     if "strain" in cols:
         out["max_strain"] = float(np.nanmax(cols["strain"]))
+    if "bending_strain" in cols:
+        out["max_bending_strain"] = float(np.nanmax(cols["bending_strain"]))
     if "energy_density" in cols:
         out["max_energy_density"] = float(np.nanmax(cols["energy_density"]))
         if freq:

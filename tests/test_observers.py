@@ -226,7 +226,8 @@ def test_bonded_length_is_the_clamp_under_each_arm(repo, comm, case_name, expect
 def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
     """A strip bent into a circular arc from the clamp edge s_b = 1 mm over ℓ = 4 mm, then
     straight: the active length is ℓ (not s_b + ℓ), to one sample spacing h = 0.125 mm
-    (the arc's ends fall on samples here; measured 3.999999 mm)."""
+    (the arc's ends fall on samples here; measured 3.999999 mm), and the largest
+    curvature is 1/R."""
     from dolfinx import fem
 
     from magfem.case import load_case
@@ -264,3 +265,7 @@ def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
     name = f"active_length_{arm.name}"
     assert with_patch[name] == pytest.approx(ell, abs=h)
     assert from_root[name] - with_patch[name] == pytest.approx(s_b, abs=1e-12)
+    # the sharpest bend is the arc's 1/R: the segment-angle difference is exact for sample
+    # points on an arc, and the P2 interpolant of the map passes through them to 1e-11
+    # (measured); 1e-3 leaves room for a coarser interpolant, not for a wrong formula
+    assert with_patch[f"curvature_{arm.name}"] == pytest.approx(1 / radius, rel=1e-3)

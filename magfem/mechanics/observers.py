@@ -245,12 +245,14 @@ class MidlineShape(NamedTuple):
         folds: number of folds.
         tip_normal: |w_tip|/L (dimensionless).
         spread: std(w)/L (dimensionless).
+        max_curvature: max_k |κ_k| (1/m), the sharpest bend of the midline.
     """
 
     active_length: float
     folds: int
     tip_normal: float
     spread: float
+    max_curvature: float = 0.0
 
 
 def midline_shape(
@@ -299,6 +301,7 @@ def midline_shape(
         folds=folds,
         tip_normal=abs(float(w[-1])) / length,
         spread=float(np.std(w)) / length,
+        max_curvature=kmax,
     )
 
 
@@ -331,7 +334,7 @@ class MidlineProbe:
 
     def columns(self) -> list[str]:
         """CSV column names."""
-        keys = ("active_length", "folds", "tip_normal", "spread")
+        keys = ("active_length", "folds", "tip_normal", "spread", "curvature")
         return [f"{k}_{a.name}" for a in self.arms for k in keys]
 
     def __call__(self, u: fem.Function) -> dict[str, float]:
@@ -351,6 +354,7 @@ class MidlineProbe:
             row[f"folds_{arm.name}"] = float(shape.folds)
             row[f"tip_normal_{arm.name}"] = shape.tip_normal
             row[f"spread_{arm.name}"] = shape.spread
+            row[f"curvature_{arm.name}"] = shape.max_curvature
         return row
 
 

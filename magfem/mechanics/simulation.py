@@ -238,7 +238,12 @@ class MembraneSimulation:
                 raw = bending_angle(x[2 * i], x[2 * i + 1], arm, self.gdim)
                 row[f"angle_{name}"] = self._unwrap[name](raw)
         if self.midline is not None:
-            row |= self.midline(self.u)
+            shape = self.midline(self.u)
+            row |= shape
+            # surface strain of the sharpest midline bend, κ h/2 (bending alone; model-robust,
+            # unlike the pointwise largest strain, which 3D corners and free edges raise)
+            kappa = max(shape[f"curvature_{name}"] for name in self.arms)
+            row["bending_strain"] = kappa * self.robot.thickness / 2
         strain = self.strain_probe()
         row["strain"] = strain
         row["energy_density"] = material.energy_density(self.case.material.shear_modulus, strain)
@@ -266,6 +271,7 @@ class MembraneSimulation:
         cols = ["time", "dt", "newton_iterations", "cuts"]
         cols += [f"angle_{n}" for n in self.arms]
         cols += self.midline.columns() if self.midline is not None else []
+        cols += ["bending_strain"] if self.midline is not None else []
         cols += ["strain", "energy_density"]
         cols += [f"energy_{n}" for n in self.energy_forms] + ["energy_total"]
         if self.contact_forms:
@@ -634,6 +640,8 @@ class MembraneSimulation:
             "max_strain": float(np.max(history["strain"])),
             "max_energy_density": float(np.max(history["energy_density"])),
         }
+        if "bending_strain" in history:
+            out["max_bending_strain"] = float(np.max(history["bending_strain"]))
         if self.frequency:
             period = 1.0 / self.frequency
             out["power_density"] = self.frequency * out["max_energy_density"]
