@@ -444,9 +444,6 @@ class MembraneSimulation:
             if self.problem.impact_absorber is not None:
                 # columns that just landed stop (inelastic impact, see contact.py)
                 self.problem.impact_absorber.apply(integ.u0, integ.v0, integ.a0)
-            if self.self_contact is not None:
-                # arm–arm impacts are inelastic too (self_contact.py)
-                self.self_contact.absorb_impacts(integ.u0, integ.v0, integ.a0)
         else:
             integ.restore()
         return report
