@@ -111,6 +111,35 @@ When the data are refreshed: implicit coupling.
     1 ms: 2e-9 N between petals 4 mm apart, no vertex penetrating; the
     search pairs facing surfaces at any positive gap).
 
+What makes the 1 mm bow tie slow at the clap (measured, serial:
+    ``magfem run cases/bow_tie.toml --set mesh.size=1mm --set time.end=36ms
+    --set 'solver.petsc_options={snes_monitor=""}'``).
+    Every step cut is a Newton failure with DIVERGED_FUNCTION_NANORINF (a
+    full Newton step inverts an element; basic line search), 37 cuts up to
+    36.2 ms, and the cuts start after the reversal at 25 ms, before any
+    contact (27–33 ms, steps down to 45 µs); ``line_search = "bt"`` gives
+    DIVERGED_MAX_IT instead and also reaches 1e-6–1e-5 s at the clap. First
+    touch at 33.98 ms (0.26 mN). The nodes that touch are the right arm's
+    *tip end face* (reference x = 5 mm, its mid-thickness nodes included)
+    landing on the top of the hub at x = 0 after the arm curled past 250°,
+    at relative normal speeds of 0.1–10 m/s (a whipping tip), penetrating
+    10–39 µm (band 40 µm); the largest strain is 0.4–1.2 there (the 1 mm
+    elements of the tip are crushed) and the right arm's angle jumps by
+    20° within 20 µs. Tried and not kept:
+    the contact at the end of the step with the pairing searched at u_n
+    (steps 3–9 µs, no better than the stage point's 2–40 µs), and in
+    addition an inelastic impact (relative normal velocity of touching
+    through-thickness columns removed after each step, half on each side,
+    like :class:`magfem.mechanics.contact.ImpactAbsorber`): worse on the bow
+    tie (steps ~1 µs, strain > 1, ground force 0.1–0.2 N, kinetic energy
+    0.2 → 6 µJ) and the bouncing blocks did not stick (11 % of the kinetic
+    energy back, separation after 100 µs). Its first version, without a
+    proximity test, kicked columns 4 mm away (an edge node's gap to a far
+    master node can be negative, the artefact above) and failed at 16 ms.
+    So at 1 mm the clap is an under-resolved tip crushing against the hub
+    (and inverted elements), not a time-discretisation defect of the
+    contact law.
+
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
     groups and reference positions are gathered on every rank
