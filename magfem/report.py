@@ -211,6 +211,12 @@ STUDIES: tuple[Study, ...] = (
         ("time.end=25ms",),
         "closing and reopening times (from the petal angles)",
         columns=("max_angle_petal_1", "max_angle_petal_6"),
+        notes="Prediction under the assumed magnetisation: no petal closes within 25 ms "
+        "(largest petal angle in the table). With M̃ through the thickness and B along z, a "
+        "flat petal feels no torque (M̃ × B = 0); it moves only from the tilt the 5 ms "
+        "trigger along (1,1,1) gives it, and the 10 ms half periods of the 50 Hz wave are "
+        "short for the growth of that tilt when B is reversed. A closing flower needs another "
+        "magnetisation pattern (e.g. radial, in-plane), which the paper would have to give.",
         pending=_SOLID_PENDING,
     ),
     Study(
