@@ -241,7 +241,12 @@ STUDIES: tuple[Study, ...] = (
         "cases/bow_tie.toml",
         (f"{_F}=10Hz,20Hz,30Hz",),
         "arm sequence; arms touching (self-contact force and first touch in the history)",
-        columns=("max_angle_arm_left", "max_angle_arm_right"),
+        columns=(
+            "max_angle_arm_left",
+            "max_angle_arm_right",
+            "first_self_touch",
+            "max_self_contact_force",
+        ),
         pending=_SOLID_PENDING,
     ),
 )

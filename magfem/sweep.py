@@ -43,6 +43,8 @@ DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_halfperiod_
 first half period is the lift under the first field sign, before any reversal),
 ``final_angle_<arm>``;
 ``max_strain``, ``max_bending_strain`` (κ h/2 of the sharpest midline bend),
+``first_self_touch`` (s, first sample with a self-contact force; nan if none) and
+``max_self_contact_force`` (N) with self-contact on,
 ``max_energy_density`` (J/m³, ρE = 3με²/2),
 ``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step); the midline
 and speed entries of :func:`magfem.mechanics.observers.summarize_midline`
@@ -249,6 +251,11 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
         out["max_strain"] = float(np.nanmax(cols["strain"]))
     if "bending_strain" in cols:
         out["max_bending_strain"] = float(np.nanmax(cols["bending_strain"]))
+    if "self_contact_force" in cols:
+        force = np.asarray(cols["self_contact_force"], dtype=float)
+        touching = np.flatnonzero(force > 0.0)
+        out["first_self_touch"] = float(t[touching[0]]) if touching.size else math.nan
+        out["max_self_contact_force"] = float(np.nanmax(force))
     if "energy_density" in cols:
         out["max_energy_density"] = float(np.nanmax(cols["energy_density"]))
         if freq:

@@ -172,3 +172,16 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
     assert page.count("**Prediction missing:** not run yet") == len(STUDIES) - 1
     with pytest.raises(CaseError, match="--only"):
         build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
+
+
+def test_history_summary_reads_first_self_touch(tmp_path):
+    """First self-touch = time of the first sample with a positive self-contact force."""
+    from magfem.sweep import summarize_history
+
+    rows = ["time,self_contact_force", "0.0,0.0", "0.001,0.0", "0.002,3e-4", "0.003,0.0"]
+    (tmp_path / "history.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    out = summarize_history(tmp_path)
+    assert out["first_self_touch"] == 0.002
+    assert out["max_self_contact_force"] == 3e-4
+    (tmp_path / "history.csv").write_text("time,self_contact_force\n0.0,0.0\n", encoding="utf-8")
+    assert math.isnan(summarize_history(tmp_path)["first_self_touch"])
