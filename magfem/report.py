@@ -248,13 +248,16 @@ STUDIES: tuple[Study, ...] = (
             "max_self_contact_force",
         ),
         notes="`first_self_touch` (s) is the first sample with an arm–arm contact force, "
-        "`max_self_contact_force` (N) the largest. The field is the same for all three "
-        "frequencies until its first reversal at 1/(2f), so the first touch (16.5 ms, while "
-        "both arms rise past the vertical towards each other) is common to all. At 10 Hz the "
-        "arms then lean on each other with forces of order µN through the whole run. At 20 and "
-        "30 Hz the right arm flips over after the reversal and strikes (0.19 N, 1.19 N), and "
-        "Newton cuts the step below 1e-6 s: the 30 Hz run stopped, the 20 Hz run was stopped "
-        "(the clap is under-resolved, magfem/mechanics/self_contact.py).",
+        "`max_self_contact_force` (N) the largest. The arms lift in turn: in the first half "
+        "period the right arm rises and leans over (105° at the first touch, 16.5 ms, on the "
+        "left arm, which the same field presses down to about −15°); the field is the same for "
+        "all three frequencies until its first reversal at 1/(2f), so that first touch is "
+        "common to all. At 10 Hz the left arm rises to 133° in the second half period and the "
+        "right one goes down: the cross-clapping sequence, with contact forces of at most "
+        "1.7 µN (light leaning). At 20 and 30 Hz the reversal comes while the right arm is "
+        "over: it flips and strikes (0.19 N, 1.19 N), and Newton cuts the step below 1e-6 s "
+        "(the 30 Hz run stopped, the 20 Hz run was stopped; the clap is under-resolved, "
+        "magfem/mechanics/self_contact.py).",
         pending=_SOLID_PENDING,
     ),
 )
