@@ -122,3 +122,38 @@ def test_quasi_static_follows_the_load(comm):
         assert solver.solve().converged
         integ.advance()
         assert u.x.array[0] == pytest.approx(np.sin(FORCING * integ.time) / OMEGA**2, rel=1e-10)
+
+
+@pytest.mark.parametrize("homogeneous", [True, False])
+def test_residual_hook_adds_a_load_and_keeps_dirichlet_rows(comm, homogeneous):
+    """A residual hook is an extra load on either assembly path of NewtonSolver.
+
+    −u'' = 0 on (0, 1) with u(0) = 0 and a hook that subtracts a nodal load P at
+    x = 1 from the residual: Newton must return the bar u = P x (P1 is exact for it),
+    and the constrained row keeps x − g (u(0) = 0 exactly), whichever path assembles.
+    """
+    domain = mesh.create_unit_interval(comm, 8)
+    V = fem.functionspace(domain, ("Lagrange", 1))
+    u = fem.Function(V)
+    w = ufl.TestFunction(V)
+    F = ufl.inner(ufl.grad(u), ufl.grad(w)) * ufl.dx
+    left = fem.locate_dofs_geometrical(V, lambda x: np.isclose(x[0], 0.0))
+    right = fem.locate_dofs_geometrical(V, lambda x: np.isclose(x[0], 1.0))
+    bc = fem.dirichletbc(0.0, left, V)
+    P = 0.25
+    owned = V.dofmap.index_map.size_local
+    right_owned = right[right < owned]
+
+    def load(x, b):
+        with b.localForm() as b_local:
+            b_local.array[right_owned] -= P
+
+    solver = NewtonSolver(F, u, [bc], TIGHT, homogeneous_bcs=homogeneous)
+    solver.residual_hooks.append(load)
+    report = solver.solve()
+    assert report.converged
+    coords = V.tabulate_dof_coordinates()[:, 0]
+    assert np.allclose(u.x.array, P * coords, atol=1e-12)
+    b = solver.problem.b  # residual at the solution (x holds it after solve)
+    solver.snes.computeFunction(solver.problem.x, b)
+    assert np.allclose(b.array[left[left < owned]], 0.0)

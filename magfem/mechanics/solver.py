@@ -174,9 +174,13 @@ class NewtonSolver:
                 fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             else:
-                if self.residual_hooks:
-                    raise NotImplementedError("residual hooks need homogeneous_bcs=True")
                 fem_petsc.assemble_residual(snes_, x, b, problem.u, problem.F, problem.J, bcs)
+                if self.residual_hooks:
+                    for hook in self.residual_hooks:
+                        hook(x, b)
+                    # the hooks may have touched constrained rows: set them again to x − g
+                    fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
+                    b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             timings.residual += time.perf_counter() - t0
             timings.residual_calls += 1
 
