@@ -2,7 +2,9 @@
 
 Under MPI every rank runs the same tests in the same order; tests that
 only make sense on one rank are marked ``@pytest.mark.serial`` and skipped
-when the world communicator has more than one rank.
+when the world communicator has more than one rank; tests that are the
+parallel twin of a serial test are marked ``@pytest.mark.parallel`` and
+skipped on one rank.
 """
 
 from __future__ import annotations
@@ -21,10 +23,13 @@ REPO = Path(__file__).resolve().parents[1]
 
 def pytest_collection_modifyitems(config, items):
     if MPI.COMM_WORLD.size > 1:
-        skip = pytest.mark.skip(reason="serial-only test (MPI world size > 1)")
-        for item in items:
-            if "serial" in item.keywords:
-                item.add_marker(skip)
+        marker, reason = "serial", "serial-only test (MPI world size > 1)"
+    else:
+        marker, reason = "parallel", "parallel twin of a serial test (runs under mpirun)"
+    skip = pytest.mark.skip(reason=reason)
+    for item in items:
+        if marker in item.keywords:
+            item.add_marker(skip)
 
 
 @pytest.fixture(scope="session")

@@ -154,10 +154,9 @@ def test_scene_runs_and_moves_as_torque_predicts(name, repo, shared_tmp, comm):
     _check_scene(name, SCENES[name], repo, shared_tmp, comm)
 
 
+@pytest.mark.parallel  # the serial test covers these scenes on one rank
 @pytest.mark.parametrize("name", PARALLEL)
 def test_scene_under_mpi(name, repo, shared_tmp, comm):
-    if comm.size == 1:
-        pytest.skip("the serial test covers this scene; this one is for mpirun -n 2")
     _check_scene(name, SCENES[name], repo, shared_tmp, comm)
 
 
