@@ -331,7 +331,6 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, thickn
     latter at 100 and 400 µm, against lower bounds 0.939 and 0.795).
     The beam stays flat (tip lift below one thickness).
     """
-    from magfem.mechanics.contact import create_ground_contact_law
     from magfem.mechanics.reference import penalty_penetration
 
     case = _case(
@@ -347,9 +346,7 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, thickn
     width = case.robot.params.width
     free = case.robot.length - case.robot.clamp_length
     q = mat.density * 9.8 * h  # weight per area (Pa)
-    law = create_ground_contact_law(
-        case.contact, shear_modulus=mat.shear_modulus, density=mat.density, thickness=h
-    )
+    law = sim.problem.contact_law
     delta = penalty_penetration(q, law.stiffness, law.onset)
     k = law.stiffness * min(delta / law.onset, 1.0)  # slope of the C1 ramp there (Pa/m)
     K, mu = mat.bulk, mat.shear_modulus

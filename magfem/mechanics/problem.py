@@ -104,6 +104,8 @@ class MembraneProblem:
             after every accepted dynamic step with ground contact, else None.
         gravity: the gravity vector Constant g (m/s², gdim components), scaled in
             place by quasi-static load continuation.
+        contact_law: the ground's :class:`~magfem.mechanics.contact.GroundContactLaw`
+            (SI constants), None without ground contact.
     """
 
     robot: RobotMesh
@@ -122,6 +124,7 @@ class MembraneProblem:
     self_contact: SelfContact | None = None
     impact_absorber: Any = None
     gravity: fem.Constant | None = None
+    contact_law: Any = None
 
 
 def _kinematics(case: Case) -> material.Kinematics:
@@ -291,7 +294,7 @@ def build_membrane_problem(
     u_generic = fem.Function(V)
     internal = ufl.algorithms.expand_derivatives(ufl.derivative(potential(u_generic), u_generic, w))
 
-    contact = None
+    contact = law = None
     if case.contact.ground:
         from magfem.mechanics.contact import GroundContact, create_ground_contact_law
 
@@ -377,4 +380,5 @@ def build_membrane_problem(
         self_contact=self_contact,
         impact_absorber=absorber,
         gravity=g,
+        contact_law=law,
     )

@@ -376,9 +376,9 @@ class MembraneSimulation:
         stay at zero. Returns δ* (m; 0 when the body does not touch the
         ground, there is no ground contact or gravity does not press down).
         """
-        contact, robot = self.case.contact, self.robot
+        contact, robot, law = self.case.contact, self.robot, self.problem.contact_law
         g = self.problem.gravity
-        if not contact.ground or g is None:
+        if law is None or g is None:
             return 0.0
         vertical = self.gdim - 1
         g_v = float(np.asarray(g.value)[vertical])
@@ -386,17 +386,9 @@ class MembraneSimulation:
         lowest = self.comm.allreduce(float(x.min()) if x.size else np.inf, op=MPI.MIN)
         if g_v >= 0.0 or lowest > contact.ground_height + 1e-9 * robot.thickness:
             return 0.0
-        from magfem.mechanics.contact import create_ground_contact_law
         from magfem.mechanics.reference import penalty_penetration
 
-        mat = self.case.material
-        law = create_ground_contact_law(
-            contact,
-            shear_modulus=mat.shear_modulus,
-            density=mat.density,
-            thickness=robot.thickness,
-        )
-        weight = mat.density * abs(g_v) * robot.thickness  # per area of the bottom face (Pa)
+        weight = self.case.material.density * abs(g_v) * robot.thickness  # per area (Pa)
         delta = penalty_penetration(weight, law.stiffness, law.onset)
         for func in (self.integrator.u0, self.u):
             func.x.array.reshape(-1, self.gdim)[:, vertical] -= delta
