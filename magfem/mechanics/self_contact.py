@@ -178,6 +178,7 @@ from scipy.spatial import cKDTree
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh, locate
 from magfem.mechanics.contact import penalty_ramp
+from magfem.mechanics.solver import JIT_OPTIONS
 
 if TYPE_CHECKING:
     from magfem.mechanics.integrator import TimeIntegrator
@@ -428,7 +429,7 @@ class SelfContact:
         half = 0.5 * self.pressure(X + self.u_geom)
         slave = -half * ufl.inner(self.nbar, w) * self.measure  # ∂E/∂u_s
         master = half * ufl.inner(self.nbar, psi) * self.measure  # ∂E/∂x̄
-        jit = {"cffi_extra_compile_args": ["-O2"]}
+        jit = JIT_OPTIONS
         self._slave_form = fem.form(slave, jit_options=jit)
         self._master_form = fem.form(master, jit_options=jit)
         self._blocks = []

@@ -58,7 +58,7 @@ from magfem.mechanics.observers import (
     summarize_midline,
 )
 from magfem.mechanics.problem import MembraneProblem, build_membrane_problem
-from magfem.mechanics.solver import NewtonReport, NewtonSolver, solve_linear
+from magfem.mechanics.solver import JIT_OPTIONS, NewtonReport, NewtonSolver, solve_linear
 
 if TYPE_CHECKING:
     from magfem.case import Case
@@ -161,10 +161,11 @@ class MembraneSimulation:
             self.self_contact.attach(self.solver, self.problem.bcs)
         t1 = _time.perf_counter()
         self.energy_forms = {
-            k: fem.form(f, jit_options={"cffi_extra_compile_args": ["-O2"]})
-            for k, f in self.problem.energy_forms.items()
+            k: fem.form(f, jit_options=JIT_OPTIONS) for k, f in self.problem.energy_forms.items()
         }
-        self.contact_forms = [fem.form(f) for f in self.problem.contact_forms]
+        self.contact_forms = [
+            fem.form(f, jit_options=JIT_OPTIONS) for f in self.problem.contact_forms
+        ]
         self.observer_compile_time = _time.perf_counter() - t1
         gdim = robot_mesh.mesh.geometry.dim
         self.gdim = gdim
