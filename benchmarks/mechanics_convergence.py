@@ -41,6 +41,21 @@ from magfem.parallel import rank0_print
 REPO = Path(__file__).resolve().parents[1]
 
 
+def _mesh_size(text: str) -> tuple[float, float | None]:
+    """``"5e-4"`` -> (5e-4, None); ``"2.5e-4x1e-3"`` -> (size, size_across) in m."""
+    along, _, across = text.partition("x")
+    try:
+        return float(along), (float(across) if across else None)
+    except ValueError:
+        msg = f"mesh size {text!r}: want SIZE or ALONGxACROSS (m)"
+        raise argparse.ArgumentTypeError(msg) from None
+
+
+def _size_label(size: float, across: float | None) -> str:
+    """Mesh size in mm for the table: ``0.5`` or ``0.25x1`` (along x across)."""
+    return f"{size * 1e3:g}" + ("" if across is None else f"x{across * 1e3:g}")
+
+
 def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, Any] | None:
     """Run a case with overrides; history arrays, timings and step statistics (None: failed)."""
     case = load_case(case_path, overrides)
@@ -85,7 +100,8 @@ def table(title: str, rows: list[dict[str, Any]], reference: dict[str, Any]) -> 
         err_max, err_end = compare(r, reference)
         t = r["timings"]
         lines.append(
-            f"{r['model']:6} {r['size'] * 1e3:7.3g} {r['dt'] * 1e3:6.3g} {r['dofs']:6d} "
+            f"{r['model']:6} {_size_label(r['size'], r.get('across')):>7} "
+            f"{r['dt'] * 1e3:6.3g} {r['dofs']:6d} "
             f"{r['steps']:5d} {r['newton']:6.2f} {r['cuts']:4d} {r['wall']:7.1f} "
             f"{t.get('compile', math.nan):7.1f} {t.get('residual', math.nan):6.1f} "
             f"{t.get('jacobian', math.nan):6.1f} {t.get('linear_solve', math.nan):6.1f} "
@@ -109,7 +125,13 @@ def main() -> None:
     parser.add_argument("--case", default=str(REPO / "cases" / "one_arm_trapezoid.toml"))
     parser.add_argument("--strip-case", default=str(REPO / "cases/one_arm_shapes_rectangle.toml"))
     parser.add_argument("--window", type=float, default=0.01, help="simulated time (s)")
-    parser.add_argument("--sizes", type=float, nargs="+", default=[2e-3, 1e-3, 0.5e-3])
+    parser.add_argument(
+        "--sizes",
+        type=_mesh_size,
+        nargs="+",
+        default=[(2e-3, None), (1e-3, None), (0.5e-3, None)],
+        help="in-plane sizes (m); ALONGxACROSS sets mesh.size_across too, e.g. 2.5e-4x1e-3",
+    )
     parser.add_argument("--steps", type=float, nargs="+", default=[1e-3, 5e-4, 2.5e-4])
     parser.add_argument("--strip-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3, 0.25e-3])
     parser.add_argument("--solid-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3])
@@ -124,16 +146,20 @@ def main() -> None:
     # --- default case: mesh x step grid -----------------------------------------------------
     rows: list[dict[str, Any]] = []
     failed: list[str] = []
-    for size in sorted(args.sizes, reverse=True):
+    # coarse to fine: the last run is the reference
+    for size, across in sorted(args.sizes, key=lambda s: (-s[0], -(s[1] or s[0]))):
+        label = _size_label(size, across)
         for dt in sorted(args.steps, reverse=True):
             over = [*common, f"mesh.size={size}", f"time.step={dt}"]
+            if across is not None:
+                over.append(f"mesh.size_across={across}")
             r = run_one(Path(args.case), over, comm)
             if r is None:
-                failed.append(f"solid size {size * 1e3:g} mm, dt {dt * 1e3:g} ms")
+                failed.append(f"solid size {label} mm, dt {dt * 1e3:g} ms")
                 continue
-            rows.append(r | {"model": "solid", "size": size, "dt": dt})
+            rows.append(r | {"model": "solid", "size": size, "across": across, "dt": dt})
             rank0_print(
-                f"  solid size={size:g} dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps, "
+                f"  solid size={label} mm dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps, "
                 f"{r['newton']:.2f} Newton/step, end angle {math.degrees(r['angle'][-1]):.3f} deg"
             )
             _save(args.json, rows, comm)
@@ -168,7 +194,8 @@ def main() -> None:
         lines += ["", *table(title, strip_rows, solid_ref)]
         rows += strip_rows
     lines += [
-        f"reference: {reference['model']} {reference['size'] * 1e3:g} mm, dt "
+        f"reference: {reference['model']} {_size_label(reference['size'], reference.get('across'))}"
+        f" mm, dt "
         f"{reference['dt'] * 1e3:g} ms"
     ]
     lines += [f"FAILED (SimulationError): {f}" for f in failed]

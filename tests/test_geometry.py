@@ -142,6 +142,62 @@ def test_clamp_patch_and_bottom(comm):
     assert area("tip") == pytest.approx(2e-3 * THICKNESS, rel=1e-12)
 
 
+def _cell_extents(rm) -> tuple[np.ndarray, np.ndarray]:
+    """x and y extents (m) of the bounding box of every local cell."""
+    msh = rm.mesh
+    geom = msh.geometry.x[msh.geometry.dofmaps[0]]  # (cells, nodes, 3)
+    span = geom.max(axis=1) - geom.min(axis=1)
+    return span[:, 0], span[:, 1]
+
+
+@pytest.mark.parametrize("shape", ["trapezoid", "triangle", "bow_tie"])
+def test_size_across(shape, comm):
+    """``size_across``: elements 4x longer across the arms, exact volume and groups, fewer cells."""
+    r = robot(shape)
+    size = r.min_feature / 8
+    iso = create_robot_mesh(r, meshspec(size=size), comm)
+    rm = create_robot_mesh(r, meshspec(size=size, size_across=4 * size), comm)
+    assert rm.num_cells < 0.6 * iso.num_cells  # isotropic quads tile ~4x as many cells
+    assert rm.min_quality >= MIN_QUALITY
+    assert measure(rm, comm) == pytest.approx(rm.area * THICKNESS, rel=1e-9)  # polygons: exact
+    assert set(rm.groups) == set(iso.groups)
+    ds_iso, ds = (
+        ufl.Measure(
+            "ds", domain=m.mesh, subdomain_data=m.facet_tags, metadata={"quadrature_degree": Q}
+        )
+        for m in (iso, rm)
+    )
+    for name, (dim, tag) in rm.groups.items():  # the groups cover the same faces
+        if dim == 2:
+            a_iso = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds_iso(tag))), op=MPI.SUM)
+            a = comm.allreduce(
+                fem.assemble_scalar(fem.form(1.0 * ds(rm.groups[name][1]))), op=MPI.SUM
+            )
+            assert a == pytest.approx(a_iso, rel=1e-9), name
+    # element shape: the median cell is ~1 size long in x and ~4 sizes across in y (clipped by
+    # the arm's width where it narrows); the isotropic mesh's cells are about square
+    dx_iso, dy_iso = (comm.allgather(v) for v in _cell_extents(iso))
+    dx, dy = (comm.allgather(v) for v in _cell_extents(rm))
+    ratio_iso = np.median(np.concatenate(dy_iso)) / np.median(np.concatenate(dx_iso))
+    ratio = np.median(np.concatenate(dy)) / np.median(np.concatenate(dx))
+    assert 0.6 < ratio_iso < 1.6
+    assert ratio > 2.0
+    assert np.median(np.concatenate(dx)) < 1.6 * size
+
+
+def test_size_across_rejected():
+    with pytest.raises(CaseError) as err:  # arms in every direction
+        create_robot_mesh(robot("star"), meshspec(size=2e-4, size_across=4e-4), MPI.COMM_WORLD)
+    assert err.value.key == "mesh.size_across"
+    with pytest.raises(CaseError) as err:
+        create_robot_mesh(
+            robot("rectangle"), meshspec(size=2e-4, size_across="3 mm"), MPI.COMM_WORLD
+        )
+    assert err.value.key == "mesh.size_across"
+    with pytest.raises(CaseError, match="size_across"):
+        meshspec(size="0.1 mm", size_across="0.5 mm", model="strip")
+
+
 def test_curved_outline_accuracy(comm):
     """Second-order geometry captures the star hub; order-1 flower area converges at rate 2."""
     star = robot("star")

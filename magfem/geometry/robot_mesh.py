@@ -12,6 +12,9 @@ Pipeline (:func:`create_robot_mesh`):
    z = thickness/2. ``strip``: the side view (x, z) of a uniform-width arm,
    a line along x extruded through the thickness (quadrilaterals or
    triangles), as a gdim = 2 mesh whose second coordinate is z.
+   ``size_across`` (arms along x only): the outline is stretched in y by
+   size/size_across before meshing and the nodes are scaled back after, so
+   the elements are ``size`` long and ``size_across`` wide.
 3. Physical groups by name (see :class:`RobotMesh`), optional second-order
    geometry, element quality, then :func:`magfem.geometry.gmshio.build_mesh`
    distributes the mesh with its tags.
@@ -150,6 +153,41 @@ class _Plan(NamedTuple):
     tip_dim: int  # dimension of the tip entities below (0 points, 1 curves)
     tips: list[int]  # entities the tip refinement is measured from
     curves: list[int]  # curves of the meshed outline (before extrusion)
+
+
+class _StretchedOutline(Outline):
+    """``outline`` with its y axis scaled by ``stretch`` (gmsh side of ``mesh.size_across``).
+
+    gmsh meshes the stretched outline with isotropic elements of size
+    ``mesh.size`` and the mesh nodes are scaled back afterwards, which leaves
+    elements of length ``size`` along x and ``size / stretch`` along y. The
+    queries (``cell_group``, ``tip_group``, ``in_clamp``) take stretched
+    coordinates and answer for the true outline.
+    """
+
+    def __init__(self, outline: Outline, stretch: float):
+        self.outline = outline
+        self.stretch = stretch
+        self.arms = outline.arms
+        self.area = outline.area
+        self.curved = outline.curved
+        self.clamped = outline.clamped
+        self.scale = outline.scale
+
+    def build(self, occ: Any) -> None:
+        before = set(occ.getEntities(2))
+        self.outline.build(occ)
+        added = [e for e in occ.getEntities(2) if e not in before]
+        occ.dilate(added, 0.0, 0.0, 0.0, 1.0, self.stretch, 1.0)
+
+    def cell_group(self, x: float, y: float) -> str:
+        return self.outline.cell_group(x, y / self.stretch)
+
+    def tip_group(self, x: float, y: float) -> str | None:
+        return self.outline.tip_group(x, y / self.stretch)
+
+    def in_clamp(self, x: npt.NDArray[np.float64], y: npt.NDArray[np.float64]) -> Any:
+        return self.outline.in_clamp(x, np.asarray(y) / self.stretch)
 
 
 def _size_field(gmsh: Any, spec: MeshSpec, outline: Outline, plan: _Plan) -> None:
@@ -335,8 +373,9 @@ def _make_builder(robot: RobotSpec, spec: MeshSpec, outline: Outline, info: dict
         # would drop the structured-extrusion constraints)
         px, py, pz = robot.position
         sx, sy, sz = (px, pz, 0.0) if spec.model == "strip" else (px, py, pz)
-        if sx or sy or sz:
-            gmsh.model.mesh.affineTransform([1, 0, 0, sx, 0, 1, 0, sy, 0, 0, 1, sz])
+        syy = 1.0 / outline.stretch if isinstance(outline, _StretchedOutline) else 1.0
+        if sx or sy or sz or syy != 1.0:
+            gmsh.model.mesh.affineTransform([1, 0, 0, sx, 0, syy, 0, sy, 0, 0, 1, sz])
         types = gmsh.model.mesh.getElementTypes(dim=plan.tdim)
         names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
         want = _EXPECTED_TYPES[(spec.model, spec.element)]
@@ -399,10 +438,20 @@ def create_robot_mesh(
     """
     check_mesh_for_robot(robot, mesh)
     outline = outline_of(robot)
+    gmsh_outline = outline
+    if mesh.size_across is not None and mesh.size_across != mesh.size:
+        if not isinstance(outline, BeamOutline):
+            raise CaseError(
+                "mesh.size_across",
+                mesh.size_across,
+                f"needs arms along the x axis (rectangle, trapezoid, triangle, two-arm, bow-tie "
+                f"shapes); '{robot.shape}' has arms in other directions: leave it out",
+            )
+        gmsh_outline = _StretchedOutline(outline, mesh.size / mesh.size_across)
     info: dict[str, Any] = {}
     gdim = 2 if mesh.model == "strip" else 3
     data = build_mesh(
-        _make_builder(robot, mesh, outline, info),
+        _make_builder(robot, mesh, gmsh_outline, info),
         comm,
         gdim=gdim,
         name=f"robot_{robot.shape}",
