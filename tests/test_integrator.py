@@ -13,8 +13,9 @@ import ufl
 from dolfinx import fem, mesh
 
 import magfem  # noqa: F401  (MPI before dolfinx)
+from magfem.config import CaseError, from_table
 from magfem.mechanics.integrator import TimeIntegrator, alpha_parameters
-from magfem.mechanics.solver import NewtonSolver
+from magfem.mechanics.solver import NewtonSolver, load_norm
 from magfem.mechanics.spec import SolverSpec
 
 OMEGA = 2 * np.pi  # rad/s
@@ -157,3 +158,82 @@ def test_residual_hook_adds_a_load_and_keeps_dirichlet_rows(comm, homogeneous):
     b = solver.problem.b  # residual at the solution (x holds it after solve)
     solver.snes.computeFunction(solver.problem.x, b)
     assert np.allclose(b.array[left[left < owned]], 0.0)
+
+
+def _cubic_history(f: float, u0: float, steps: int) -> list[float]:
+    """|u_k³ − f| of scalar Newton for u³ = f from u0 (the independent reference)."""
+    u, out = u0, []
+    for _ in range(steps + 1):
+        out.append(abs(u**3 - f))
+        u -= (u**3 - f) / (3 * u**2)
+    return out
+
+
+@pytest.mark.parametrize("fraction", [1e-1, 1e-4, 1e-9])
+def test_force_scaled_tolerance_stops_at_the_first_iterate_below_it(comm, fraction):
+    """Newton stops exactly when ‖R‖ <= force_tolerance × F_ref, not before, not after.
+
+    (u³ − f) w on DG0 over four cells of (0, 1): every cell carries the same
+    scalar equation, the residual entry of a cell is (u³ − f) h with h = 1/4, so
+    ‖R‖₂ = |u³ − f| sqrt(4 h²) = |u³ − f|/2. Scalar Newton in numpy gives the
+    iterates; rtol and stol are off, so only the force-scaled test can stop
+    the solve.
+    """
+    f, u0, F_ref = 8.0, 5.0, 3.0
+    domain = mesh.create_unit_interval(comm, 4)
+    V = fem.functionspace(domain, ("DG", 0))
+    w = ufl.TestFunction(V)
+    u = fem.Function(V)
+    u.x.array[:] = u0
+    form = (u**3 - f) * w * ufl.dx(metadata={"quadrature_degree": 0})
+    spec = SolverSpec(rtol=1e-15, atol=0.0, stol=0.0, max_iterations=30, force_tolerance=fraction)
+    solver = NewtonSolver(form, u, [], spec, force_scale=F_ref)
+    assert solver.snes.getTolerances()[1] == pytest.approx(fraction * F_ref)
+    norms = 0.5 * np.array(_cubic_history(f, u0, 30))  # ‖R_k‖₂ = |u_k³ − f| sqrt(4 × (1/4)²)
+    expected = int(np.argmax(norms <= fraction * F_ref))
+    report = solver.solve()
+    assert report.converged, report
+    assert report.iterations == expected, (report, norms[: expected + 2])
+    assert report.residual_norm <= fraction * F_ref < norms[expected - 1]
+    solver.destroy()
+
+
+def test_force_scale_keeps_the_larger_absolute_tolerance_and_user_override(comm):
+    domain = mesh.create_unit_interval(comm, 2)
+    V = fem.functionspace(domain, ("DG", 0))
+    u = fem.Function(V)
+    form = (u - 1.0) * ufl.TestFunction(V) * ufl.dx(metadata={"quadrature_degree": 0})
+    solver = NewtonSolver(form, u, [], SolverSpec(atol=1e-3, force_tolerance=0.1))
+    assert solver.set_force_scale(1e-4) == pytest.approx(1e-3)  # atol larger than 1e-5
+    assert solver.set_force_scale(1.0) == pytest.approx(0.1)
+    assert solver.set_force_scale(0.0) == pytest.approx(1e-3)  # no gravity: atol alone
+    with pytest.raises(ValueError, match="force_scale"):
+        solver.set_force_scale(float("nan"))
+    solver.destroy()
+    user = SolverSpec(force_tolerance=0.1, petsc_options={"snes_atol": 1e-9})
+    solver = NewtonSolver(form, u, [], user, force_scale=1.0)
+    assert solver.snes.getTolerances()[1] == pytest.approx(1e-9)  # petsc_options win
+    solver.destroy()
+
+
+def test_load_norm_is_the_norm_of_the_nodal_weights_off_the_support(comm):
+    """∫ ρ g w dx on n P1 elements of (0, L): nodal loads ρ g L/n inside, half at the ends.
+
+    With the left end supported its row is left out: ‖f‖² = (n − 1)(ρgL/n)² + (ρgL/(2n))².
+    """
+    n, rho_g, length = 8, 3.0, 2.0
+    domain = mesh.create_interval(comm, n, [0.0, length])
+    V = fem.functionspace(domain, ("Lagrange", 1))
+    left = fem.locate_dofs_geometrical(V, lambda x: np.isclose(x[0], 0.0))
+    bc = fem.dirichletbc(0.0, left, V)
+    form = rho_g * ufl.TestFunction(V) * ufl.dx
+    h = length / n
+    expected = np.sqrt((n - 1) * (rho_g * h) ** 2 + (rho_g * h / 2) ** 2)
+    assert load_norm(form, [bc]) == pytest.approx(expected, rel=1e-12)
+    assert load_norm(form) == pytest.approx(np.sqrt(expected**2 + (rho_g * h / 2) ** 2), rel=1e-12)
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.0, "5 N"])
+def test_force_tolerance_is_validated(value):
+    with pytest.raises(CaseError, match=r"solver\.force_tolerance"):
+        from_table(SolverSpec, {"force_tolerance": value}, "solver")

@@ -13,11 +13,19 @@ Default options (FENICSX.md, measured on thin cantilevers): Newton with
 Newton on thin plates whose first iterate raises ‖R‖ a thousandfold).
 Options in ``SolverSpec.petsc_options`` override these; every problem has
 its own options prefix.
+
+Convergence: SNES's tests (``rtol`` relative to the residual at the
+predictor, ``atol``, ``stol``) plus a force-scaled absolute test, ‖R‖ <=
+``SolverSpec.force_tolerance`` × F_ref, with the force scale F_ref (N) given
+by the caller (:meth:`NewtonSolver.set_force_scale`, usually the norm of the
+weight load vector, :func:`load_norm`); it enters SNES as its absolute
+tolerance max(atol, force_tolerance × F_ref).
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -30,7 +38,14 @@ from petsc4py import PETSc
 
 from magfem.mechanics.spec import SolverSpec
 
-__all__ = ["JIT_OPTIONS", "NewtonReport", "NewtonSolver", "SolverTimings", "newton_options"]
+__all__ = [
+    "JIT_OPTIONS",
+    "NewtonReport",
+    "NewtonSolver",
+    "SolverTimings",
+    "load_norm",
+    "newton_options",
+]
 
 _COUNTER = itertools.count()
 
@@ -122,6 +137,9 @@ class NewtonSolver:
         spec: solver settings.
         name: a word for the options prefix (``magfem_<name>_<n>_``).
         J: Jacobian form (default ``ufl.derivative(F, u)``).
+        force_scale: F_ref (N; N/m for strips), the force against which
+            ``spec.force_tolerance`` is measured (see :meth:`set_force_scale`);
+            None: no force-scaled test.
         homogeneous_bcs: every condition in ``bcs`` prescribes zero and the
             initial ``u`` is zero on its dofs. Newton then never moves those
             dofs, the lifting term A (g − x) of dolfinx's residual is exactly
@@ -141,6 +159,7 @@ class NewtonSolver:
         *,
         name: str = "newton",
         J: ufl.Form | None = None,
+        force_scale: float | None = None,
         homogeneous_bcs: bool = False,
     ):
         self.u = u
@@ -169,6 +188,28 @@ class NewtonSolver:
         """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
         self._wrap_callbacks(list(bcs), homogeneous_bcs)
+        self.force_scale: float | None = None
+        if force_scale is not None:
+            self.set_force_scale(force_scale)
+
+    def set_force_scale(self, force_scale: float) -> float:
+        """Measure the residual against the force F_ref = ``force_scale`` (N; N/m for strips).
+
+        Newton then also converges when ‖R‖ <= ``spec.force_tolerance`` × F_ref:
+        SNES's absolute tolerance becomes max(``spec.atol``, that), unless
+        ``spec.petsc_options`` sets ``snes_atol`` itself. F_ref = 0 (no
+        gravity) leaves ``atol`` alone. Returns the absolute tolerance in force (N).
+
+        Raises:
+            ValueError: ``force_scale`` negative or not finite (a programming error).
+        """
+        if not math.isfinite(force_scale) or force_scale < 0.0:
+            raise ValueError(f"force_scale must be finite and >= 0, got {force_scale!r}")
+        self.force_scale = float(force_scale)
+        atol = max(self.spec.atol, self.spec.force_tolerance * self.force_scale)
+        if "snes_atol" not in self.spec.petsc_options:
+            self.snes.setTolerances(atol=atol)
+        return float(self.snes.getTolerances()[1])
 
     def _wrap_callbacks(self, bcs: list[fem.DirichletBC], homogeneous: bool) -> None:
         """Re-register dolfinx's assembly callbacks with timers around them."""
@@ -268,3 +309,24 @@ def solve_linear(
     report = solver.solve()
     solver.destroy()
     return report
+
+
+def load_norm(form: ufl.Form, bcs: Sequence[fem.DirichletBC] = ()) -> float:
+    """Euclidean norm of the assembled load vector of ``form`` off the supports (collective).
+
+    ``form`` is linear in the test function, e.g. the weight ∫ ρ g·w dV (the
+    force scale of :meth:`NewtonSolver.set_force_scale`): the result is in N
+    (N/m for strips), the units of the Newton residual. Rows of dofs
+    constrained by ``bcs`` are left out, as the support reactions are not
+    part of the residual Newton drives to zero.
+    """
+    compiled = fem.form(form, form_compiler_options=FORM_COMPILER_OPTIONS, jit_options=JIT_OPTIONS)
+    b: Any = fem_petsc.assemble_vector(compiled)  # type: ignore[arg-type]
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    with b.localForm() as local:
+        for bc in bcs:
+            dofs, owned = bc.dof_indices()
+            local.array[dofs[:owned]] = 0.0
+    norm = float(b.norm())
+    b.destroy()
+    return norm

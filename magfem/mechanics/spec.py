@@ -209,12 +209,33 @@ class SolverSpec:
     ``petsc_options`` entries are given without prefix, e.g.
     ``petsc_options = { snes_monitor = "" , mat_mumps_icntl_14 = 200 }``,
     and override the options derived from the other keys.
+
+    Newton converges when the residual norm ‖R‖ (the Euclidean norm of the
+    nodal force vector, N; N/m for strips) drops below ``rtol`` × its value
+    at the predictor, below ``atol``, or below ``force_tolerance`` × F_ref,
+    where F_ref is the norm of the robot's weight load vector ∫ ρ g·w dV on
+    the same mesh (:func:`magfem.mechanics.solver.load_norm`; the caller
+    passes it to :meth:`~magfem.mechanics.solver.NewtonSolver.set_force_scale`).
+    The relative criterion alone measures the residual against the
+    predictor's, which the inertia term M Δu/(β Δt²) dominates (~1700 × the
+    weight vector's norm on the default case), and so asks for ~2e-3 of the
+    weight. ``force_tolerance = 0.1`` stops one Newton iteration earlier on
+    most steps but moves the default case's tip angle by up to 0.16° through
+    a different adaptive step sequence, hence off (0) by default
+    (``docs/mechanics.md``, "Newton convergence").
     """
 
     linear_solver: str = option("mumps", ("mumps", "superlu_dist", "petsc"))
     line_search: str = option("basic", ("basic", "bt", "l2", "cp"))
     rtol: float = quantity(1e-6, "", gt=0.0, lt=1.0, doc="Newton relative residual tolerance")
     atol: float = quantity(1e-12, "N", ge=0.0, doc="Newton absolute residual tolerance (N)")
+    force_tolerance: float = quantity(
+        0.0,
+        "",
+        ge=0.0,
+        lt=1.0,
+        doc="Newton also stops when ‖R‖ <= this × ‖weight load vector‖ (0: off)",
+    )
     stol: float = quantity(1e-10, "", ge=0.0, lt=1.0, doc="Newton relative step tolerance")
     max_iterations: int = integer(15, ge=1, doc="Newton iterations before a step counts as failed")
     reuse_jacobian: bool = False
