@@ -357,3 +357,27 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, thickn
     force = history["contact_force"][-1] / width  # N per m of width
     assert q * (free - 2 * layer) < force <= q * free * (1 + 1e-6)
     assert abs(history["tip_normal_arm"][-1]) * case.robot.length < h
+
+
+def test_force_tolerance_saves_newton_iterations_not_accuracy(comm):
+    """``[solver] force_tolerance``: Newton stops at ‖R‖ <= tol × ‖weight load‖ in the time loop.
+
+    Same steps (adaptive off), so the only difference is where Newton stops:
+    fewer iterations in all (a run that ignored the option would use the same
+    number), and the angle history within 0.01° of rtol alone: Newton's
+    remaining error is far below the time-discretisation error of these steps
+    (Δt 0.1 vs 0.2 ms moves the 25 ms history by ~1.6°, docs/mechanics.md).
+    """
+    runs = {}
+    for tol in (0.0, 0.1):
+        case = _case(solver={"force_tolerance": tol}, time={"adaptive": False, "step": "0.1 ms"})
+        sim = MembraneSimulation(case, comm)
+        runs[tol] = (sim.run(None, progress=False), sim)
+    (ref, _), (loose, sim) = runs[0.0], runs[0.1]
+    atol = sim.solver.snes.getTolerances()[1]
+    assert atol == pytest.approx(0.1 * sim._weight_scale(), rel=1e-12)
+    assert atol > 0.1 * 1.2e-3  # F_ref of this 0.5 mm strip: 1.23e-3 N/m (measured)
+    its_ref, its = (int(np.sum(r.history["newton_iterations"])) for r in (ref, loose))
+    assert its <= 0.95 * its_ref, (its, its_ref)  # measured 160 against 174
+    diff = np.max(np.abs(ref.history["angle_arm"] - loose.history["angle_arm"]))
+    assert math.degrees(diff) < 0.01, math.degrees(diff)  # measured 5e-4

@@ -60,6 +60,9 @@ from magfem.mechanics.observers import (
 from magfem.mechanics.problem import MembraneProblem, build_membrane_problem
 from magfem.mechanics.solver import JIT_OPTIONS, NewtonReport, NewtonSolver, solve_linear
 
+STANDARD_GRAVITY = 9.80665
+"""g₀ (m/s²), for the force scale of ``[solver] force_tolerance``."""
+
 if TYPE_CHECKING:
     from magfem.case import Case
     from magfem.field.model import FieldModel
@@ -156,6 +159,8 @@ class MembraneSimulation:
             name="step",
             homogeneous_bcs=True,
         )
+        if case.solver.force_tolerance > 0.0:
+            self.solver.set_force_scale(self._weight_scale())
         self.self_contact = self.problem.self_contact
         if self.self_contact is not None:  # coupled contact terms of every Newton iteration
             self.self_contact.attach(self.solver, self.problem.bcs)
@@ -440,6 +445,25 @@ class MembraneSimulation:
         else:
             integ.restore()
         return report
+
+    def _weight_scale(self) -> float:
+        """F_ref of ``[solver] force_tolerance`` (N; N/m for strips, collective).
+
+        The norm of the robot's weight load vector ∫ ρ g₀·w dV under standard
+        gravity g₀ = 9.80665 m/s² downwards, supports left out: a force scale of
+        the robot whether ``[environment] gravity`` is applied or not.
+        """
+        import ufl
+
+        from magfem.mechanics.solver import load_norm
+
+        V = self.u.function_space
+        down = np.zeros(V.mesh.geometry.dim)
+        down[-1] = -STANDARD_GRAVITY
+        w = ufl.TestFunction(V)
+        dx = ufl.dx(domain=V.mesh, metadata={"quadrature_degree": self.problem.quadrature_degree})
+        rho = self.case.material.density
+        return load_norm(rho * ufl.dot(ufl.as_vector(down.tolist()), w) * dx, self.problem.bcs)
 
     def _say(self, msg: str, bar: Any) -> None:
         self.log.append(msg)

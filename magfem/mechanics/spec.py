@@ -213,9 +213,10 @@ class SolverSpec:
     Newton converges when the residual norm ‖R‖ (the Euclidean norm of the
     nodal force vector, N; N/m for strips) drops below ``rtol`` × its value
     at the predictor, below ``atol``, or below ``force_tolerance`` × F_ref,
-    where F_ref is the norm of the robot's weight load vector ∫ ρ g·w dV on
-    the same mesh (:func:`magfem.mechanics.solver.load_norm`; the caller
-    passes it to :meth:`~magfem.mechanics.solver.NewtonSolver.set_force_scale`).
+    where F_ref is the norm of the robot's weight load vector ∫ ρ g₀·w dV under
+    standard gravity on the same mesh (:func:`magfem.mechanics.solver.load_norm`;
+    the time loop passes it to
+    :meth:`~magfem.mechanics.solver.NewtonSolver.set_force_scale`).
     The relative criterion alone measures the residual against the
     predictor's, which the inertia term M Δu/(β Δt²) dominates (~1700 × the
     weight vector's norm on the default case), and so asks for ~2e-3 of the
