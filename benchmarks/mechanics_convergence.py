@@ -17,7 +17,10 @@ Run on 2 cores (timings vary ~30 % between identical runs)::
     .venv/bin/python benchmarks/mechanics_convergence.py --window 0.005 --sizes 2e-3 1e-3 \\
         --steps 1e-3 5e-4      # quick look
 
-Prints the tables (rank 0) and writes them as JSON with ``--json PATH``.
+Prints the tables (rank 0) and writes the runs as JSON with ``--json PATH``
+(after every run); ``--load`` prints the table of saved runs again and
+``--reference`` compares with the last run of another file, e.g. a finer
+mesh run by a separate command.
 """
 
 from __future__ import annotations
@@ -120,6 +123,14 @@ def _save(path: Path | None, rows: list[dict[str, Any]], comm: MPI.Comm) -> None
     path.write_text(json.dumps(payload, indent=1))
 
 
+def _load(path: Path) -> list[dict[str, Any]]:
+    """Runs saved by ``--json`` (histories back as arrays)."""
+    rows = json.loads(path.read_text())
+    for r in rows:
+        r["time"], r["angle"] = np.asarray(r["time"]), np.asarray(r["angle"])
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", default=str(REPO / "cases" / "one_arm_trapezoid.toml"))
@@ -137,6 +148,19 @@ def main() -> None:
     parser.add_argument("--solid-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3])
     parser.add_argument("--skip-strip", action="store_true")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument(
+        "--load",
+        type=Path,
+        nargs="+",
+        default=None,
+        help="read the solid runs from these --json files instead of running them",
+    )
+    parser.add_argument(
+        "--reference",
+        type=Path,
+        default=None,
+        help="compare with the last run of this --json file instead of this command's finest",
+    )
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     common = [f"time.end={args.window}", "output.csv=false", "output.vtx_every=0"]
@@ -147,7 +171,11 @@ def main() -> None:
     rows: list[dict[str, Any]] = []
     failed: list[str] = []
     # coarse to fine: the last run is the reference
-    for size, across in sorted(args.sizes, key=lambda s: (-s[0], -(s[1] or s[0]))):
+    if args.load:
+        rows = [r for path in args.load for r in _load(path) if r["model"] == "solid"]
+    for size, across in (
+        [] if args.load else sorted(args.sizes, key=lambda s: (-s[0], -(s[1] or s[0])))
+    ):
         label = _size_label(size, across)
         for dt in sorted(args.steps, reverse=True):
             over = [*common, f"mesh.size={size}", f"time.step={dt}"]
@@ -163,9 +191,10 @@ def main() -> None:
                 f"{r['newton']:.2f} Newton/step, end angle {math.degrees(r['angle'][-1]):.3f} deg"
             )
             _save(args.json, rows, comm)
-    reference = rows[-1]  # finest mesh, smallest step that completed
+    # finest mesh, smallest step that completed (or the given one)
+    reference = _load(args.reference)[-1] if args.reference else rows[-1]
     lines = table(
-        f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the finest run",
+        f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the reference",
         rows,
         reference,
     )
