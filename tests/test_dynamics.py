@@ -18,6 +18,7 @@ from mpi4py import MPI
 
 from magfem.case import parse_case
 from magfem.mechanics import MembraneSimulation
+from magfem.mechanics.simulation import SimulationError
 
 BASE: dict[str, Any] = {
     "name": "strip",
@@ -381,3 +382,25 @@ def test_force_tolerance_saves_newton_iterations_not_accuracy(comm):
     assert its <= 0.95 * its_ref, (its, its_ref)  # measured 160 against 174
     diff = np.max(np.abs(ref.history["angle_arm"] - loose.history["angle_arm"]))
     assert math.degrees(diff) < 0.01, math.degrees(diff)  # measured 5e-4
+
+
+@pytest.mark.parametrize(
+    ("time", "reason"),
+    [
+        ({"min_step": "0.1 ms"}, "time.min_step"),  # 0.25 -> 0.125 -> (0.0625 < 0.1) ms
+        ({"max_cuts": 0}, "time.max_cuts"),
+    ],
+)
+def test_stalled_run_stops_with_its_reason_and_keeps_its_history(comm, shared_tmp, time, reason):
+    """One Newton iteration cannot solve a step: the run stops saying why, CSV kept."""
+    case = _case(
+        solver={"max_iterations": 1},
+        time={"step": "0.25 ms", **time},
+        output={"csv": True, "vtx_every": 0, "plot": False},
+    )
+    out = shared_tmp / reason
+    with pytest.raises(SimulationError, match=reason.replace(".", r"\.")) as err:
+        MembraneSimulation(case, comm).run(out, progress=False)
+    assert "t = 0 s: Newton failed" in str(err.value)
+    rows = (out / "history.csv").read_text().splitlines()
+    assert rows[0].startswith("time,") and len(rows) >= 2  # header and the t = 0 state

@@ -551,11 +551,21 @@ class MembraneSimulation:
                     cuts += 1
                     self.cuts += 1
                     new_dt = dt * spec.cut_factor
-                    if not spec.adaptive or cuts > spec.max_cuts or new_dt < spec.smallest_step:
+                    why = (
+                        "time.adaptive is off"
+                        if not spec.adaptive
+                        else f"more than time.max_cuts = {spec.max_cuts} cuts in a row"
+                        if cuts > spec.max_cuts
+                        else f"the next step would be below time.min_step = "
+                        f"{spec.smallest_step:.3g} s"
+                        if new_dt < spec.smallest_step
+                        else ""
+                    )
+                    if why:
                         raise SimulationError(
                             f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
                             f"{report.iterations} it, ‖R‖ = {report.residual_norm:.3g}) "
-                            f"at dt = {dt:.3g} s after {cuts} cut(s)"
+                            f"at dt = {dt:.3g} s after {cuts} cut(s): {why}"
                         )
                     self._say(
                         f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
