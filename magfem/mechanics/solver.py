@@ -200,8 +200,8 @@ class NewtonSolver:
 
         Newton then also converges when ‖R‖ <= ``spec.force_tolerance`` × F_ref:
         SNES's absolute tolerance becomes max(``spec.atol``, that), unless
-        ``spec.petsc_options`` sets ``snes_atol`` itself. F_ref = 0 (no
-        gravity) leaves ``atol`` alone. Returns the absolute tolerance in force (N).
+        ``spec.petsc_options`` sets ``snes_atol`` itself. F_ref = 0 leaves
+        ``atol`` alone. Returns the absolute tolerance in force (N).
 
         Raises:
             ValueError: ``force_scale`` negative or not finite (a programming error).
