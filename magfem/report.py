@@ -223,7 +223,11 @@ STUDIES: tuple[Study, ...] = (
         "failure",
         "Failure triangles I–III at 45, 85, 180 µm, 4 mT",
         "cases/failure.toml",
-        ("robot.type=I,II,III", "robot.thickness=45um,85um,180um"),
+        (
+            "robot.type=" + ",".join(t for t in ("I", "II", "III") for _ in range(3)),
+            "robot.thickness=" + ",".join(("180um", "85um", "45um") * 3),
+            "mesh.size=" + ",".join(s for s in ("0.5mm", "1mm", "2mm") for _ in range(3)),
+        ),
         "collapse vs partial bending (DESIGN.md indicators)",
         columns=(
             "max_angle_arm",
@@ -233,6 +237,11 @@ STUDIES: tuple[Study, ...] = (
             "collapse",
             "partial_bending",
         ),
+        notes="Types I, II, III are similar triangles (5 × 8, 10 × 16, 20 × 32 mm²): the mesh "
+        "size scales with them (0.5, 1, 2 mm: 10 elements across the base, the same cost per "
+        "type), every type at every thickness, one period of the 20 Hz wave (50 ms: the field "
+        "points both ways once). Only 20 Hz: the paper's range of frequencies is left out.",
+        paired=True,
         pending=_SOLID_PENDING,
     ),
     Study(
@@ -255,9 +264,11 @@ STUDIES: tuple[Study, ...] = (
         "common to all. At 10 Hz the left arm rises to 133° in the second half period and the "
         "right one goes down: the cross-clapping sequence, with contact forces of at most "
         "1.7 µN (light leaning). At 20 and 30 Hz the reversal comes while the right arm is "
-        "over: it flips and strikes (0.19 N, 1.19 N), and Newton cuts the step below 1e-6 s "
-        "(the 30 Hz run stopped, the 20 Hz run was stopped; the clap is under-resolved, "
-        "magfem/mechanics/self_contact.py).",
+        "over (184°, 230°): it flips and strikes the other side (contact force 0.05 N, "
+        "1.19 N), and Newton cuts the step until the case's `time.min_step` (2 µs) stops the "
+        "run, at 26.9 ms and 20.6 ms: the clap is under-resolved (the tip's end face hits at "
+        "metres per second and crushes its elements; magfem/mechanics/self_contact.py). Those "
+        "two predictions are missing beyond the first touch.",
         pending=_SOLID_PENDING,
     ),
 )
