@@ -174,6 +174,26 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
         build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
 
 
+def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
+    """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
+    from magfem.report import STUDIES, build_report
+
+    monkeypatch.chdir(repo)
+    study = next(s for s in STUDIES if s.unresolved)
+    fprint = fingerprint(Path(study.case), study.sets)
+    points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
+    for pt in points:
+        point = tmp_path / "out" / study.ident / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
+    n = len(points)
+    row = f"| [{study.ident}](#{study.ident}) | under-resolved | {n}/{n} | {n} |"
+    assert row in page
+    assert f"**Prediction missing:** under-resolved: {study.unresolved}" in page
+
+
 def test_history_summary_reads_first_self_touch(tmp_path):
     """First self-touch = time of the first sample with a positive self-contact force."""
     from magfem.sweep import summarize_history
