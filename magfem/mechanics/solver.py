@@ -57,9 +57,11 @@ JIT_OPTIONS: dict[str, Any] = {
 
 ``-ffast-math`` lets the compiler reorder the long sums of the element tangent
 and vectorise them: the default case's Jacobian (P2 hexahedra, 27 points)
-takes 12-14 ms instead of 35-37 ms per call (``benchmarks/dynamics_speed.py
-assembly``, 'no contact'; -O2 alone 35 ms, -O3 -march=native 28 ms), with
-results equal to the -O2 kernels' up to round-off. ``-fno-finite-math-only`` keeps the
+takes 12.5-16 ms instead of 35-41 ms per call without contact and 24 ms
+instead of 43-53 ms with ground contact on the whole boundary (the facet
+kernel gains less), ``benchmarks/dynamics_speed.py assembly`` with each flag
+set back to back (-O3 -march=native: 28 ms without contact), with results
+equal to the -O2 kernels' up to round-off. ``-fno-finite-math-only`` keeps the
 IEEE meaning of NaN and infinity: an inverted element must still give a NaN
 residual, which the solver reports as a failed step. No ``-march=native``
 (it gains < 10 % here, and a shared form cache must not hold code one CPU of
