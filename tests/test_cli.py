@@ -30,6 +30,23 @@ def test_check_reports_ok(shared_tmp, comm, capsys):
     if comm.rank == 0:
         assert out.strip().endswith(f"{path}: OK")
         assert "rectangle, thickness 100 um" in out
+        assert "magnetoelastic length" not in out  # no field, no magnetisation: no length
+
+
+def test_check_reports_the_magnetoelastic_length(shared_tmp, comm, capsys):
+    """ℓ = t √(E/(12 M B)) and the elements per ℓ, here 100 µm at 2 mT: 1.08 mm, 0.5 mm mesh."""
+    case = CASE | {
+        "material": CASE["material"] | {"remanence": "123 kA/m"},
+        "field": {"sources": [{"kind": "uniform", "flux_density": "2 mT", "direction": [1, 0, 0]}]},
+    }
+    path = shared_tmp / "cli_probe_field.toml"
+    if comm.rank == 0:
+        path.write_text(tomli_w.dumps(case))
+    comm.barrier()
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    if comm.rank == 0:
+        assert "magnetoelastic length 1.08 mm at 2 mT: 2.2 element(s) per length" in out
     else:
         assert out == ""
 
