@@ -67,6 +67,7 @@ if TYPE_CHECKING:
     from magfem.case import Case
     from magfem.field.model import FieldModel
     from magfem.geometry.robot_mesh import RobotMesh
+    from magfem.mechanics.spec import TimeSpec
 
 __all__ = [
     "MembraneSimulation",
@@ -79,6 +80,17 @@ __all__ = [
 
 class SimulationError(RuntimeError):
     """The time loop could not continue (Newton failed at the smallest step)."""
+
+
+def _stop_reason(spec: TimeSpec, cuts: int, next_dt: float) -> str:
+    """Why a failed step ends the run ("" if the step may be cut and retried)."""
+    if not spec.adaptive:
+        return "time.adaptive is off"
+    if cuts > spec.max_cuts:
+        return f"more than time.max_cuts = {spec.max_cuts} cuts in a row"
+    if next_dt < spec.smallest_step:
+        return f"the next step would be below time.min_step = {spec.smallest_step:.3g} s"
+    return ""
 
 
 def drive_frequency(case: Case) -> float | None:
@@ -551,16 +563,7 @@ class MembraneSimulation:
                     cuts += 1
                     self.cuts += 1
                     new_dt = dt * spec.cut_factor
-                    why = (
-                        "time.adaptive is off"
-                        if not spec.adaptive
-                        else f"more than time.max_cuts = {spec.max_cuts} cuts in a row"
-                        if cuts > spec.max_cuts
-                        else f"the next step would be below time.min_step = "
-                        f"{spec.smallest_step:.3g} s"
-                        if new_dt < spec.smallest_step
-                        else ""
-                    )
+                    why = _stop_reason(spec, cuts, new_dt)
                     if why:
                         raise SimulationError(
                             f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
