@@ -64,6 +64,29 @@ class Case:
     output: OutputSpec = _field(default_factory=OutputSpec)
     description: str = ""
 
+    def resolution(self) -> str | None:
+        """One line on how well the mesh resolves a field-driven bend, or None.
+
+        The magnetoelastic length ℓ (:func:`magfem.material.magnetoelastic_length`)
+        at the field amplitude bound (the sum of the sources' nominal flux
+        densities) and the elements of ``mesh.size`` per ℓ; about 3 give ~1°
+        (docs/verification.md §4a). None without a magnetisation or a nominal field.
+        """
+        from magfem import material
+
+        flux = sum(getattr(s, "flux_density", None) or 0.0 for s in self.field.sources)
+        mat = self.material
+        if flux <= 0.0 or mat.remanence <= 0.0:
+            return None
+        ell = material.magnetoelastic_length(
+            mat.shear_modulus, mat.bulk, self.robot.thickness, mat.remanence, flux
+        )
+        return (
+            f"magnetoelastic length {ell * 1e3:.3g} mm at {flux * 1e3:g} mT: "
+            f"{ell / self.mesh.size:.2g} element(s) per length (about 3 resolve a bend to "
+            "~1 deg, docs/verification.md 4a)"
+        )
+
 
 def _check_consistency(case: Case) -> None:
     """Checks that involve several tables."""

@@ -62,20 +62,9 @@ def _summary(case: Case) -> str:
         f"mesh      {m.model}, size {m.size * 1e3:g} mm, {m.layers} layer(s)",
         f"field     {len(case.field.sources)} source(s), model {case.field.model}",
     ]
-    from magfem import material
-
-    # the field amplitude bound: sum of the sources' nominal flux densities
-    flux = sum(getattr(s, "flux_density", None) or 0.0 for s in case.field.sources)
-    mat = case.material
-    if flux > 0.0 and mat.remanence > 0.0:
-        ell = material.magnetoelastic_length(
-            mat.shear_modulus, mat.bulk, r.thickness, mat.remanence, flux
-        )
-        lines.append(
-            f"bending   magnetoelastic length {ell * 1e3:.3g} mm at {flux * 1e3:g} mT: "
-            f"{ell / m.size:.2g} element(s) per length (about 3 resolve a bend to ~1 deg, "
-            "docs/verification.md 4a)"
-        )
+    resolution = case.resolution()
+    if resolution:
+        lines.append(f"bending   {resolution}")
     return "\n".join(lines)
 
 

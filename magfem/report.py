@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from magfem.case import load_case
 from magfem.config import CaseError
 
 __all__ = ["STUDIES", "Study", "build_report"]
@@ -496,6 +497,9 @@ def _scene_section(
         f"- case: `{study.case}`; study: {command}",
         f"- model: {' '.join(notes['model']) or 'see the case file'}",
     ]
+    resolution = load_case(case, study.sets).resolution()
+    if resolution:
+        out.append(f"- resolution (the case with the study's fixed settings): {resolution}")
     if notes["missing"]:
         out.append(f"- {' '.join(notes['missing'])}")
     if study.notes:

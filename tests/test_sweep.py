@@ -169,6 +169,8 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
     assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
     # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
     assert "| 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
+    # 80 µm, 2 mT, 0.1 mm strip: ℓ = 80 µm √(2.990 μ/(12 M B)) = 0.863 mm, 8.6 elements
+    assert "magnetoelastic length 0.863 mm at 2 mT: 8.6 element(s) per length" in page
     assert page.count("**Prediction missing:** not run yet") == len(STUDIES) - 1
     with pytest.raises(CaseError, match="--only"):
         build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
