@@ -230,36 +230,10 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     t = cols["time"]
     t0 = float(resolved.get("time", {}).get("start", t[0]))
     freq = _frequency(resolved)
-    out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
-    for key, values in cols.items():
-        if not key.startswith("angle_"):
-            continue
-        arm = key[len("angle_") :]
-        out[f"max_angle_{arm}"] = float(np.nanmax(np.abs(values)))
-        out[f"final_angle_{arm}"] = float(values[-1])
-        if freq:
-            for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
-                mask = (t >= t0 - 1e-12) & (t <= t0 + n / freq + 1e-12)
-                covered = t[-1] >= t0 + n / freq - 1e-9
-                out[f"max_angle_{label}_{arm}"] = (
-                    float(np.nanmax(np.abs(values[mask]))) if covered else math.nan
-                )
-    from magfem.mechanics.observers import summarize_midline
+    from magfem.mechanics.observers import history_summary
 
-    out |= summarize_midline(cols)
-    if "strain" in cols:
-        out["max_strain"] = float(np.nanmax(cols["strain"]))
-    if "bending_strain" in cols:
-        out["max_bending_strain"] = float(np.nanmax(cols["bending_strain"]))
-    if "self_contact_force" in cols:
-        force = np.asarray(cols["self_contact_force"], dtype=float)
-        touching = np.flatnonzero(force > 0.0)
-        out["first_self_touch"] = float(t[touching[0]]) if touching.size else math.nan
-        out["max_self_contact_force"] = float(np.nanmax(force))
-    if "energy_density" in cols:
-        out["max_energy_density"] = float(np.nanmax(cols["energy_density"]))
-        if freq:
-            out["power_density"] = freq * out["max_energy_density"]
+    out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
+    out |= history_summary(cols, start=t0, frequency=freq)
     return out
 
 

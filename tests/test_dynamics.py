@@ -404,3 +404,27 @@ def test_stalled_run_stops_with_its_reason_and_keeps_its_history(comm, shared_tm
     assert "t = 0 s: Newton failed" in str(err.value)
     rows = (out / "history.csv").read_text().splitlines()
     assert rows[0].startswith("time,") and len(rows) >= 2  # header and the t = 0 state
+
+
+def test_run_summary_equals_the_summary_of_its_csv(comm, shared_tmp):
+    """The run's own summary and the sweep's summary of its history.csv are one computation:
+    they agree on every common key (the CSV stores repr(float), so exactly), nan included."""
+    from magfem.case import write_resolved_case
+    from magfem.sweep import summarize_history
+
+    wave = {"kind": "square", "frequency": "200 Hz"}  # half and one period inside 5 ms
+    source = BASE["field"]["sources"][0] | {"waveform": wave}
+    case = _case(field={"sources": [source]}, output={"csv": True, "vtx_every": 0, "plot": False})
+    out = shared_tmp / "summary"
+    result = MembraneSimulation(case, comm).run(out, progress=False)
+    if comm.rank == 0:  # as `magfem run` does: the sweep reads t0 and f from it
+        write_resolved_case(case, out / "case.resolved.toml")
+    comm.barrier()
+    from_csv = summarize_history(out)
+    common = sorted(set(result.summary) & set(from_csv) - {"steps"})
+    assert {"max_angle_arm", "max_angle_halfperiod_arm", "max_angle_2periods_arm"} <= set(common)
+    assert "max_strain" in common and "power_density" in common
+    assert math.isnan(from_csv["max_angle_2periods_arm"])  # the run ends before 2 periods
+    for key in common:
+        a, b = result.summary[key], from_csv[key]
+        assert (math.isnan(a) and math.isnan(b)) or a == b, (key, a, b)

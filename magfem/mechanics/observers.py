@@ -88,6 +88,7 @@ __all__ = [
     "arm_angle_points",
     "bending_angle",
     "bending_speed",
+    "history_summary",
     "max_over_window",
     "midline_points",
     "midline_shape",
@@ -504,12 +505,58 @@ class StrainProbe:
         return float(self.comm.allreduce(local, op=MPI.MAX))
 
 
+def history_summary(
+    history: Mapping[str, npt.NDArray[np.float64]], *, start: float, frequency: float | None
+) -> dict[str, float]:
+    """Summary scalars of a run's history columns (the run's own and the sweep's summary).
+
+    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad),
+    ``final_angle_<arm>`` and, for a periodic drive of ``frequency`` (Hz),
+    ``max_angle_{halfperiod,1period,2periods}_<arm>`` over [start, start + n/f]
+    (nan when the run ends before the window does); ``max_strain``,
+    ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
+    (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
+    force; nan if none) and ``max_self_contact_force`` (N); and
+    :func:`summarize_midline`. Columns that are absent give no entry; blank
+    samples (nan) are skipped.
+    """
+    t = np.asarray(history["time"], dtype=float)
+    out: dict[str, float] = {}
+    for key, values in history.items():
+        if not key.startswith("angle_"):
+            continue
+        arm = key[len("angle_") :]
+        out[f"max_angle_{arm}"] = float(np.nanmax(np.abs(values)))
+        out[f"final_angle_{arm}"] = float(values[-1])
+        if frequency:
+            for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
+                end = start + n / frequency
+                covered = t[-1] >= end - 1e-9
+                out[f"max_angle_{label}_{arm}"] = (
+                    max_over_window(t, values, start, end) if covered else math.nan
+                )
+    out |= summarize_midline(history)
+    for column, key in (("strain", "max_strain"), ("bending_strain", "max_bending_strain")):
+        if column in history:
+            out[key] = float(np.nanmax(history[column]))
+    if "self_contact_force" in history:
+        force = np.asarray(history["self_contact_force"], dtype=float)
+        touching = np.flatnonzero(force > 0.0)
+        out["first_self_touch"] = float(t[touching[0]]) if touching.size else math.nan
+        out["max_self_contact_force"] = float(np.nanmax(force))
+    if "energy_density" in history:
+        out["max_energy_density"] = float(np.nanmax(history["energy_density"]))
+        if frequency:
+            out["power_density"] = frequency * out["max_energy_density"]
+    return out
+
+
 def max_over_window(
     times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], t0: float, t1: float
 ) -> float:
     """max |value| over t0 <= t <= t1 (nan when no sample lies there)."""
     mask = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
-    return float(np.max(np.abs(values[mask]))) if np.any(mask) else float("nan")
+    return float(np.nanmax(np.abs(values[mask]))) if np.any(mask) else float("nan")
 
 
 def assemble_scalars(forms: list[Any], comm: MPI.Comm) -> list[float]:

@@ -54,8 +54,7 @@ from magfem.mechanics.observers import (
     arm_angle_points,
     assemble_scalars,
     bending_angle,
-    max_over_window,
-    summarize_midline,
+    history_summary,
 )
 from magfem.mechanics.problem import MembraneProblem, build_membrane_problem
 from magfem.mechanics.solver import JIT_OPTIONS, NewtonReport, NewtonSolver, solve_linear
@@ -657,31 +656,15 @@ class MembraneSimulation:
             self.dt = new_dt
 
     def _summary(self, history: dict[str, npt.NDArray[np.float64]]) -> dict[str, float]:
-        t = history["time"]
-        t0 = self.case.time.start
         out: dict[str, float] = {
             "steps": float(self.steps),
             "newton_iterations": float(self.newton_iterations),
             "mean_newton_iterations": self.newton_iterations / max(self.steps, 1),
             "cuts": float(self.cuts),
-            "max_strain": float(np.max(history["strain"])),
-            "max_energy_density": float(np.max(history["energy_density"])),
         }
-        if "bending_strain" in history:
-            out["max_bending_strain"] = float(np.max(history["bending_strain"]))
-        if self.frequency:
-            period = 1.0 / self.frequency
-            out["power_density"] = self.frequency * out["max_energy_density"]
+        out |= history_summary(history, start=self.case.time.start, frequency=self.frequency)
         if self.self_contact is not None:
             out |= self.self_contact.summary()
-        out |= summarize_midline(history)
-        for name in self.arms:
-            angle = history[f"angle_{name}"]
-            out[f"max_angle_{name}"] = float(np.max(np.abs(angle)))
-            out[f"final_angle_{name}"] = float(angle[-1])
-            if self.frequency:
-                out[f"max_angle_1period_{name}"] = max_over_window(t, angle, t0, t0 + period)
-                out[f"max_angle_2periods_{name}"] = max_over_window(t, angle, t0, t0 + 2 * period)
         return out
 
     def timings(self) -> dict[str, float]:
