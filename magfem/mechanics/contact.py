@@ -409,9 +409,13 @@ class ImpactAbsorber:
 
     Args:
         V: the displacement space (blocked vector Lagrange, gdim components).
-        facets: local indices of the facets that may touch the ground.
+        facets: local indices of the facets that may touch the ground; None:
+            every node (the shell, whose nodes are on its mid-surface).
         vertical: index of the vertical axis.
         ground_height: ground plane position (m).
+        offset: a node touches when its height minus ``offset`` is below the
+            ground (m): 0 for nodes on the faces, t/2 for the shell's
+            mid-surface nodes.
         rest_velocity: columns that were already below the ground at the
             previous step are reset only when they move up faster than this
             (m/s; the stored penetration of an impact released over the next
@@ -436,12 +440,13 @@ class ImpactAbsorber:
         vertical: int,
         ground_height: float = 0.0,
         rest_velocity: float = 1e-3,
+        offset: float = 0.0,
     ) -> None:
         mesh = V.mesh
         self.comm = mesh.comm
         self.bs = V.dofmap.index_map_bs
         self.vertical = vertical
-        self.ground_height = float(ground_height)
+        self.touch_height = float(ground_height) + float(offset)
         self.rest_velocity = float(rest_velocity)
         X = V.tabulate_dof_coordinates()[:, : mesh.geometry.dim]  # (nodes, gdim), owned + ghost
         others = [i for i in range(X.shape[1]) if i != vertical]
@@ -454,10 +459,13 @@ class ImpactAbsorber:
         # one int64 per column: the coordinates fit in 31 bits each (extent / tol = 1e9)
         self.column = keys[:, 0] if keys.shape[1] == 1 else keys[:, 0] * (1 << 31) + keys[:, 1]
         self.reference_height = X[:, vertical]
-        tdim = mesh.topology.dim
-        mesh.topology.create_connectivity(tdim - 1, tdim)
-        dofs = fem.locate_dofs_topological(V.sub(vertical), tdim - 1, np.asarray(facets))
-        self.contact_nodes = np.unique(np.asarray(dofs) // self.bs)
+        if facets is None:
+            self.contact_nodes = np.arange(X.shape[0])
+        else:
+            tdim = mesh.topology.dim
+            mesh.topology.create_connectivity(tdim - 1, tdim)
+            dofs = fem.locate_dofs_topological(V.sub(vertical), tdim - 1, np.asarray(facets))
+            self.contact_nodes = np.unique(np.asarray(dofs) // self.bs)
         self.touching = np.empty(0, dtype=np.int64)  # columns below ground at the last call
 
     def apply(self, u: Any, v: Any, a: Any) -> int:
@@ -478,7 +486,7 @@ class ImpactAbsorber:
         k = self.vertical
         nodes = self.contact_nodes
         height = self.reference_height[nodes] + u.x.array[nodes * self.bs + k]
-        hit_local = np.unique(self.column[nodes[height < self.ground_height]])
+        hit_local = np.unique(self.column[nodes[height < self.touch_height]])
         hit = np.unique(np.concatenate(self.comm.allgather(hit_local)))
         new = np.setdiff1d(hit, self.touching, assume_unique=True)
         self.touching = hit

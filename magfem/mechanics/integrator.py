@@ -48,6 +48,7 @@ from dolfinx import fem
 
 __all__ = [
     "AlphaParameters",
+    "BlockIntegrator",
     "Residual",
     "TimeIntegrator",
     "alpha_parameters",
@@ -125,6 +126,7 @@ class TimeIntegrator:
         self.dt = fem.Constant(mesh, float(dt))
         self.t = fem.Constant(mesh, 0.0)
         self.time = 0.0  # t_n (s)
+        self.parts = [self]  # as BlockIntegrator.parts
 
     # --- UFL -------------------------------------------------------------------------------
 
@@ -219,3 +221,76 @@ class TimeIntegrator:
         if self.params is None:
             raise RuntimeError("the quasi-static integrator has no velocity or acceleration")
         return self.params
+
+
+class BlockIntegrator:
+    """One time integrator over several unknowns (the shell's u and θ), stepped together.
+
+    The parts share the step Δt and the stage time t (the first part's
+    Constants), so forms built from any part's :meth:`TimeIntegrator.stage`
+    see the same step. ``u``, ``u0``, ``v0``, ``a0`` are the first part's
+    (the displacement: what the observers, the contact absorber and the
+    supports act on); ``parts`` holds all of them.
+
+    Args:
+        parts: integrators of the unknowns, created with the same scheme and
+            ρ∞, before any form is built from them.
+    """
+
+    def __init__(self, parts: list[TimeIntegrator]):
+        if not parts or len({(p.scheme, p.params) for p in parts}) != 1:
+            raise ValueError("BlockIntegrator needs integrators of one scheme and ρ∞")
+        first = parts[0]
+        for p in parts[1:]:
+            p.dt, p.t = first.dt, first.t
+        self.parts = parts
+        self.scheme = first.scheme
+        self.dynamic = first.dynamic
+        self.params = first.params
+        self.u, self.u0, self.v0, self.a0 = first.u, first.u0, first.v0, first.a0
+        self.dt, self.t = first.dt, first.t
+
+    @property
+    def time(self) -> float:
+        """t_n (s)."""
+        return self.parts[0].time
+
+    @time.setter
+    def time(self, value: float) -> None:
+        for p in self.parts:
+            p.time = value
+
+    def stage_time(self, t0: float, dt: float) -> float:
+        """Time at which loads are evaluated for the step t0 → t0 + dt (s)."""
+        return self.parts[0].stage_time(t0, dt)
+
+    def velocity(self) -> ufl.core.expr.Expr:
+        """v_{n+1} of the first part (UFL)."""
+        return self.parts[0].velocity()
+
+    def begin(self, dt: float) -> float:
+        """:meth:`TimeIntegrator.begin` of every part; returns the stage time (s)."""
+        stages = [p.begin(dt) for p in self.parts]  # every part, not just the first
+        return stages[0]
+
+    def restore(self) -> None:
+        """Every part's iterate back to its u_n."""
+        for p in self.parts:
+            p.restore()
+
+    def advance(self) -> None:
+        """Accept the step in every part."""
+        for p in self.parts:
+            p.advance()
+
+    def set_state(
+        self,
+        t: float,
+        u: np.ndarray | None = None,
+        v: np.ndarray | None = None,
+        a: np.ndarray | None = None,
+    ) -> None:
+        """t_n of every part and (optionally) the first part's arrays."""
+        self.parts[0].set_state(t, u, v, a)
+        for p in self.parts[1:]:
+            p.set_state(t)

@@ -456,6 +456,9 @@ class StrainProbe:
             the clamped facets), or None.
         radius: vertices within this distance (m) of an excluded point are not
             sampled.
+        metrics: UFL right Cauchy–Green tensors (all of one shape) to sample
+            instead of FᵀF of ``u``: the shell's two faces, whose strain adds
+            the bending strain to the membrane's.
 
     The bonded patch ends in a re-entrant edge where the strain of the
     continuum is singular (its FE value grows as the mesh is refined and says
@@ -470,6 +473,7 @@ class StrainProbe:
         u: fem.Function,
         exclude: npt.NDArray[np.float64] | None = None,
         radius: float = 0.0,
+        metrics: list[Any] | None = None,
     ):
         domain = u.function_space.mesh
         self.comm = domain.comm
@@ -477,9 +481,11 @@ class StrainProbe:
         gdim = domain.geometry.dim
         cell = domain.topology.cell_type
         points = basix.geometry(getattr(basix.CellType, cell.name))
-        F = ufl.Identity(gdim) + ufl.grad(u)
-        self.gdim = gdim
-        self.expr = fem.Expression(F.T * F, points)
+        if metrics is None:
+            F = ufl.Identity(gdim) + ufl.grad(u)
+            metrics = [F.T * F]
+        self.dim = ufl.shape(metrics[0])[0]
+        self.expr = fem.Expression(ufl.as_tensor(list(metrics)), points)
         n_local = domain.topology.index_map(domain.topology.dim).size_local
         self.cells = np.arange(n_local, dtype=np.int32)
         nv = len(points)
@@ -499,7 +505,10 @@ class StrainProbe:
         local = 0.0
         if self.cells.size and self.mask.any():
             C = np.asarray(self.expr.eval(self.domain, self.cells))
-            C = C.reshape(-1, self.gdim, self.gdim)[self.mask.ravel()]
+            n = len(self.mask.ravel())
+            C = C.reshape(n, -1, self.dim, self.dim)[self.mask.ravel()].reshape(
+                -1, self.dim, self.dim
+            )
             lam_max = np.sqrt(np.max(np.linalg.eigvalsh(C), axis=1))
             local = float(np.max(lam_max)) - 1.0
         return float(self.comm.allreduce(local, op=MPI.MAX))

@@ -30,6 +30,7 @@ governed by the mass; the quasi-static scheme then refuses to run).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -94,7 +95,7 @@ class MembraneProblem:
         magnetization: DG0 vector field M̃ (A/m).
         energy_forms: name -> UFL scalar form at (u_{n+1}, v_{n+1}) (J; J/m for strips).
         contact_forms: resultant ground force components (N; N/m for strips) or [].
-        kinematics: ``solid``, ``plane_strain`` or ``plane_stress``.
+        kinematics: ``solid``, ``plane_strain``, ``plane_stress`` or ``shell``.
         quadrature_degree: degree used on every measure.
         field: the bound field model.
         self_contact: arm–arm contact (``[contact] self_contact``) or None; its
@@ -106,6 +107,12 @@ class MembraneProblem:
             place by quasi-static load continuation.
         contact_law: the ground's :class:`~magfem.mechanics.contact.GroundContactLaw`
             (SI constants), None without ground contact.
+        unknowns: every unknown of the step, ``[u]`` or the shell's ``[u, θ]``
+            (:mod:`magfem.mechanics.shell`); with more than one, ``residual``
+            is the list of their block residuals and ``bcs`` holds the
+            conditions of all of them.
+        strain_metrics: UFL 2×2 or 3×3 right Cauchy–Green tensors whose largest
+            stretch is the largest strain (the shell's two faces); None: FᵀF of u.
     """
 
     robot: RobotMesh
@@ -117,7 +124,7 @@ class MembraneProblem:
     magnetization: fem.Function
     energy_forms: dict[str, ufl.Form]
     contact_forms: list[ufl.Form]
-    kinematics: material.Kinematics
+    kinematics: str
     quadrature_degree: int
     field: FieldModel
     free_body: bool
@@ -125,6 +132,18 @@ class MembraneProblem:
     impact_absorber: Any = None
     gravity: fem.Constant | None = None
     contact_law: Any = None
+    unknowns: list[fem.Function] = dataclass_field(default_factory=list)
+    strain_metrics: list[Any] | None = None
+
+    def __post_init__(self) -> None:
+        if not self.unknowns:
+            self.unknowns = [self.u]
+
+    @property
+    def displacement_bcs(self) -> list[fem.DirichletBC]:
+        """The conditions of ``bcs`` on the displacement u."""
+        V = self.u.function_space
+        return [bc for bc in self.bcs if bc.function_space == V]
 
 
 def _kinematics(case: Case) -> material.Kinematics:
@@ -134,7 +153,7 @@ def _kinematics(case: Case) -> material.Kinematics:
     if model == "strip":
         return "plane_strain" if case.material.plane == "strain" else "plane_stress"
     raise CaseError(
-        "mesh.model", model, "the mechanics solves 'solid' and 'strip' models, not 'surface'"
+        "mesh.model", model, "the mechanics solves 'solid', 'strip' and 'surface' (shell) models"
     )
 
 
@@ -241,13 +260,18 @@ def build_membrane_problem(
 
     Args:
         case: validated case (material, time, solver, contact, environment).
-        robot: robot mesh (``solid`` or ``strip``).
+        robot: robot mesh (``solid``, ``strip``, or ``surface``: the shell of
+            :mod:`magfem.mechanics.shell`).
         field: field model; bound to the mesh here.
         dt: initial step (s), default ``case.time.step``.
 
     Raises:
         CaseError: surface model, unknown groups, quasi-static free body.
     """
+    if case.mesh.model == "surface":
+        from magfem.mechanics.shell import build_shell_problem
+
+        return build_shell_problem(case, robot, field, dt=dt)
     kinematics = _kinematics(case)
     domain = robot.mesh
     gdim = domain.geometry.dim

@@ -162,9 +162,10 @@ class MembraneSimulation:
         self.problem: MembraneProblem = build_membrane_problem(case, robot_mesh, field_model)
         self.integrator = self.problem.integrator
         self.u = self.problem.u
+        unknowns = self.problem.unknowns
         self.solver = NewtonSolver(
             self.problem.residual,
-            self.u,
+            unknowns if len(unknowns) > 1 else self.u,
             self.problem.bcs,
             case.solver,
             name="step",
@@ -196,7 +197,10 @@ class MembraneSimulation:
             else None
         )
         self.strain_probe = StrainProbe(
-            self.u, self._support_points(), radius=robot_mesh.thickness * (1 + 1e-6)
+            self.u,
+            self._support_points(),
+            radius=robot_mesh.thickness * (1 + 1e-6),
+            metrics=self.problem.strain_metrics,
         )
         self.width = self._strip_width()
         self.frequency = drive_frequency(case)
@@ -228,7 +232,7 @@ class MembraneSimulation:
         coords = V.tabulate_dof_coordinates()
         bs = V.dofmap.index_map_bs
         nodes = [np.zeros(0, dtype=np.int64)]
-        for bc in self.problem.bcs:
+        for bc in self.problem.displacement_bcs:
             dofs, owned = bc.dof_indices()
             nodes.append(np.asarray(dofs[:owned]) // bs)
         mine = coords[np.unique(np.concatenate(nodes))]
@@ -310,16 +314,22 @@ class MembraneSimulation:
         integ.t.value = self.case.time.start  # type: ignore[assignment]
         if self.self_contact is not None:
             self.self_contact.refresh_stage()
-        V = self.u.function_space
-        a = fem.Function(V)
-        form = self.problem.continuous_residual(integ.u0, integ.v0, a, integ.t)
-        report = solve_linear(form, a, self.problem.bcs, self.case.solver, name="a0")
+        acc = [fem.Function(p.u.function_space) for p in integ.parts]
+        if len(acc) == 1:
+            form = self.problem.continuous_residual(integ.u0, integ.v0, acc[0], integ.t)
+            report = solve_linear(form, acc[0], self.problem.bcs, self.case.solver, name="a0")
+        else:  # blocks (the shell): lists of states
+            form = self.problem.continuous_residual(
+                [p.u0 for p in integ.parts], [p.v0 for p in integ.parts], acc, integ.t
+            )
+            report = solve_linear(form, acc, self.problem.bcs, self.case.solver, name="a0")
         if not report.converged:
             raise SimulationError(
                 f"initial acceleration solve failed ({report.reason_name}, ‖R‖ = "
                 f"{report.residual_norm:.3g})"
             )
-        integ.a0.x.array[:] = a.x.array
+        for p, a in zip(integ.parts, acc, strict=True):
+            p.a0.x.array[:] = a.x.array
         return report
 
     def _gravity_constants(self) -> list[fem.Constant]:
@@ -401,6 +411,8 @@ class MembraneSimulation:
         g_v = float(np.asarray(g.value)[vertical])
         x = robot.mesh.geometry.x[:, vertical]
         lowest = self.comm.allreduce(float(x.min()) if x.size else np.inf, op=MPI.MIN)
+        if self.case.mesh.model == "surface":  # the shell's mesh is its mid-surface
+            lowest -= 0.5 * robot.thickness
         if g_v >= 0.0 or lowest > contact.ground_height + 1e-9 * robot.thickness:
             return 0.0
         from magfem.mechanics.reference import penalty_penetration
@@ -409,7 +421,7 @@ class MembraneSimulation:
         delta = penalty_penetration(weight, law.stiffness, law.onset)
         for func in (self.integrator.u0, self.u):
             func.x.array.reshape(-1, self.gdim)[:, vertical] -= delta
-            for bc in self.problem.bcs:
+            for bc in self.problem.displacement_bcs:
                 bc.set(func.x.array, alpha=0.0)
         return delta
 
@@ -474,7 +486,10 @@ class MembraneSimulation:
         w = ufl.TestFunction(V)
         dx = ufl.dx(domain=V.mesh, metadata={"quadrature_degree": self.problem.quadrature_degree})
         rho = self.case.material.density
-        return load_norm(rho * ufl.dot(ufl.as_vector(down.tolist()), w) * dx, self.problem.bcs)
+        if self.case.mesh.model == "surface":  # the shell: weight per area, ρ t g
+            rho = rho * self.robot.thickness
+        weight = rho * ufl.dot(ufl.as_vector(down.tolist()), w) * dx
+        return load_norm(weight, self.problem.displacement_bcs)
 
     def _say(self, msg: str, bar: Any) -> None:
         self.log.append(msg)

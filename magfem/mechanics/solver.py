@@ -136,8 +136,10 @@ class NewtonSolver:
     """Newton solver for ``F(u) = 0`` with Dirichlet conditions ``bcs``.
 
     Args:
-        F: residual form (UFL), linear in the test function.
-        u: unknown (and initial guess), updated in place by :meth:`solve`.
+        F: residual form (UFL), linear in the test function; or the list of
+            block residuals of several unknowns (one monolithic matrix).
+        u: unknown (and initial guess), updated in place by :meth:`solve`; or
+            the list of unknowns of the blocks of ``F``.
         bcs: Dirichlet conditions on ``u`` (values applied by Newton).
         spec: solver settings.
         name: a word for the options prefix (``magfem_<name>_<n>_``).
@@ -157,8 +159,8 @@ class NewtonSolver:
 
     def __init__(
         self,
-        F: ufl.Form,
-        u: fem.Function,
+        F: ufl.Form | Sequence[ufl.Form],
+        u: fem.Function | Sequence[fem.Function],
         bcs: Sequence[fem.DirichletBC],
         spec: SolverSpec,
         *,
@@ -167,11 +169,17 @@ class NewtonSolver:
         force_scale: float | None = None,
         homogeneous_bcs: bool = False,
     ):
+        blocks = isinstance(u, Sequence)
         self.u = u
         self.spec = spec
         self.timings = SolverTimings()
         self.prefix = f"magfem_{name}_{next(_COUNTER)}_"
-        if J is None:
+        if J is None and isinstance(F, Sequence) and isinstance(u, Sequence):
+            J = [  # type: ignore[assignment]
+                [ufl.derivative(Fi, uj, ufl.TrialFunction(uj.function_space)) for uj in u]
+                for Fi in F
+            ]
+        elif J is None and isinstance(u, fem.Function):
             J = ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
         t0 = time.perf_counter()
         self.problem = fem_petsc.NonlinearProblem(
@@ -192,7 +200,8 @@ class NewtonSolver:
         self.jacobian_hooks: list[Callable[[PETSc.Vec, PETSc.Mat], None]] = []
         """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
-        self._wrap_callbacks(list(bcs), homogeneous_bcs)
+        # the homogeneous shortcut assembles one form; blocks take dolfinx's residual
+        self._wrap_callbacks(list(bcs), homogeneous_bcs and not blocks)
         self.force_scale: float | None = None
         if force_scale is not None:
             self.set_force_scale(force_scale)
@@ -221,6 +230,7 @@ class NewtonSolver:
         problem = self.problem
         snes = problem.solver
         timings = self.timings
+        blocks: Any = problem.b.getAttr("_blocks")  # layout of block residuals, else None
 
         def residual(snes_: Any, x: Any, b: Any) -> None:
             t0 = time.perf_counter()
@@ -236,7 +246,9 @@ class NewtonSolver:
                 fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             else:
-                fem_petsc.assemble_residual(snes_, x, b, problem.u, problem.F, problem.J, bcs)
+                fem_petsc.assemble_residual(
+                    snes_, x, b, problem.u, problem.F, problem.J, bcs, blocks
+                )
                 if self.residual_hooks:
                     for hook in self.residual_hooks:
                         hook(x, b)
@@ -298,8 +310,8 @@ class NewtonSolver:
 
 
 def solve_linear(
-    F: ufl.Form,
-    u: fem.Function,
+    F: ufl.Form | Sequence[ufl.Form],
+    u: fem.Function | Sequence[fem.Function],
     bcs: Sequence[fem.DirichletBC],
     spec: SolverSpec,
     *,

@@ -63,6 +63,7 @@ def cantilever_case(
     remanence: float = REMANENCE,
     bulk_modulus: float | None = None,
     environment: dict[str, Any] | None = None,
+    size_across: float | None = None,
     **tables: Any,
 ) -> Case:
     """The cantilever's case; ``tables`` (``field``, ``time``, ...) are added as they are.
@@ -73,6 +74,7 @@ def cantilever_case(
         remanence: M (A/m). bulk_modulus: K (Pa); None keeps the case default (100 μ).
         environment: the ``[environment]`` table; default no gravity and the
             bonded root strip as the support.
+        size_across: ``mesh.size_across`` (m), None: ``size``.
     """
     material: dict[str, Any] = {
         "shear_modulus": SHEAR_MODULUS,
@@ -92,7 +94,8 @@ def cantilever_case(
                 "width": width,
                 "clamp_length": CLAMP_LENGTH,
             },
-            "mesh": {"size": size, "model": model},
+            "mesh": {"size": size, "model": model}
+            | ({} if size_across is None else {"size_across": size_across}),
             "material": material,
             "environment": environment or _NO_GRAVITY,
             "output": _NO_OUTPUT,
@@ -164,13 +167,15 @@ def static_tip_angles(
     bulk_modulus: float = 100 * SHEAR_MODULUS,
     environment: dict[str, Any] | None = None,
     step: float | None = None,
+    size_across: float | None = None,
 ) -> tuple[MembraneSimulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
 
     Adaptive steps may not land on the fractions exactly; the reference is
     then evaluated at the field the step did reach (B = t × b_max).
     ``environment`` replaces the default support (the bonded root strip);
-    ``step`` is the first quasi-static step (default: the first fraction).
+    ``step`` is the first quasi-static step (default: the first fraction);
+    ``size_across`` as in :func:`cantilever_case`.
     """
     case = cantilever_case(
         model,
@@ -180,6 +185,7 @@ def static_tip_angles(
         name="elastica",
         bulk_modulus=bulk_modulus,
         environment=environment,
+        size_across=size_across,
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
     )
