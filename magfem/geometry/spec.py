@@ -562,7 +562,11 @@ def check_mesh_for_robot(robot: RobotSpec, mesh: MeshSpec) -> None:
             ``strip`` model for a shape without uniform width.
     """
     feature = robot.min_feature
-    for key, value in (("mesh.size", mesh.size), ("mesh.size_across", mesh.size_across)):
+    # with size_across, size runs along the arms and size_across is what meets the width
+    checked = [("mesh.size_across", mesh.size_across)]
+    if mesh.size_across is None:
+        checked.append(("mesh.size", mesh.size))
+    for key, value in checked:
         if value is not None and value > feature:
             raise CaseError(
                 key, value, f"must be <= the robot's smallest in-plane dimension ({feature:g} m)"
