@@ -9,7 +9,9 @@ time is split as the simulation reports it (form compilation, residual and
 Jacobian assembly, linear solves). A second table does the same for the
 2D strip model against the 3D solid on a uniform-width arm
 (``cases/one_arm_shapes_rectangle.toml`` with the trapezoid's thickness),
-whose converged reference is the finest 3D run.
+whose converged reference is the finest 3D run. ``--model surface`` runs the
+grid with the shell model (:mod:`magfem.mechanics.shell`) instead of the
+solid; with ``--reference`` it is compared with a saved solid run.
 
 Run on 2 cores (timings vary ~30 % between identical runs)::
 
@@ -143,6 +145,12 @@ def main() -> None:
         default=[(2e-3, None), (1e-3, None), (0.5e-3, None)],
         help="in-plane sizes (m); ALONGxACROSS sets mesh.size_across too, e.g. 2.5e-4x1e-3",
     )
+    parser.add_argument(
+        "--model",
+        choices=("solid", "surface"),
+        default="solid",
+        help="mesh.model of the mesh x step grid (surface: the shell model)",
+    )
     parser.add_argument("--steps", type=float, nargs="+", default=[1e-3, 5e-4, 2.5e-4])
     parser.add_argument("--strip-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3, 0.25e-3])
     parser.add_argument("--solid-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3])
@@ -171,23 +179,24 @@ def main() -> None:
     rows: list[dict[str, Any]] = []
     failed: list[str] = []
     # coarse to fine: the last run is the reference
+    label_of = {"solid": "solid", "surface": "shell"}[args.model]
     if args.load:
-        rows = [r for path in args.load for r in _load(path) if r["model"] == "solid"]
+        rows = [r for path in args.load for r in _load(path) if r["model"] in ("solid", "shell")]
     for size, across in (
         [] if args.load else sorted(args.sizes, key=lambda s: (-s[0], -(s[1] or s[0])))
     ):
         label = _size_label(size, across)
         for dt in sorted(args.steps, reverse=True):
-            over = [*common, f"mesh.size={size}", f"time.step={dt}"]
+            over = [*common, f"mesh.model={args.model}", f"mesh.size={size}", f"time.step={dt}"]
             if across is not None:
                 over.append(f"mesh.size_across={across}")
             r = run_one(Path(args.case), over, comm)
             if r is None:
-                failed.append(f"solid size {label} mm, dt {dt * 1e3:g} ms")
+                failed.append(f"{label_of} size {label} mm, dt {dt * 1e3:g} ms")
                 continue
-            rows.append(r | {"model": "solid", "size": size, "across": across, "dt": dt})
+            rows.append(r | {"model": label_of, "size": size, "across": across, "dt": dt})
             rank0_print(
-                f"  solid size={label} mm dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps, "
+                f"  {label_of} size={label} mm dt={dt:g}: {r['wall']:.1f} s, {r['steps']} steps, "
                 f"{r['newton']:.2f} Newton/step, end angle {math.degrees(r['angle'][-1]):.3f} deg"
             )
             _save(args.json, rows, comm)
