@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_dynamics import BASE as STRIP_BASE  # the same arm and drive as the strip tests
 
 from magfem.case import parse_case
 from magfem.config import CaseError
@@ -23,29 +24,9 @@ from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
 from magfem.mechanics import verification as vc
 
-BASE: dict[str, Any] = {
+BASE: dict[str, Any] = copy.deepcopy(STRIP_BASE) | {
     "name": "shell",
-    "robot": {
-        "shape": "rectangle",
-        "thickness": "80 um",
-        "length": "7.5 mm",
-        "width": "4 mm",
-        "clamp_length": "1 mm",
-    },
     "mesh": {"size": "1 mm", "model": "surface"},
-    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
-    "field": {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "2 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "square", "frequency": "20 Hz"},
-            }
-        ]
-    },
-    "time": {"end": "5 ms", "step": "0.25 ms"},
-    "output": {"csv": False, "vtx_every": 0, "plot": False},
 }
 
 

@@ -184,6 +184,27 @@ def _magnetization(case: Case, robot: RobotMesh) -> fem.Function:
     return M
 
 
+def clamped_entities(case: Case, robot: RobotMesh) -> list[tuple[int, Any]]:
+    """(dim, local entities) of each ``[environment] clamped`` group the robot has.
+
+    Raises:
+        CaseError: a group the robot does not have (``clamp`` is skipped: robots
+            with clamp_length = 0 have none, and it is the default).
+    """
+    out = []
+    for i, name in enumerate(case.environment.clamped):
+        if name not in robot.groups and name != "robot":
+            if name == "clamp":
+                continue
+            raise CaseError(
+                f"environment.clamped[{i}]",
+                name,
+                "no such group; groups are " + ", ".join(sorted(robot.groups)),
+            )
+        out.append(locate(robot, name))
+    return out
+
+
 def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list, bool]:
     """Dirichlet conditions of ``[environment]``; returns (bcs, free_body)."""
     domain = robot.mesh
@@ -191,16 +212,7 @@ def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list,
     env = case.environment
     zero = np.zeros(gdim, dtype=np.float64)
     bcs = []
-    for i, name in enumerate(env.clamped):
-        if name not in robot.groups and name != "robot":
-            if name == "clamp":  # the default: robots with clamp_length = 0 have none
-                continue
-            raise CaseError(
-                f"environment.clamped[{i}]",
-                name,
-                "no such group; groups are " + ", ".join(sorted(robot.groups)),
-            )
-        dim, entities = locate(robot, name)
+    for dim, entities in clamped_entities(case, robot):
         domain.topology.create_connectivity(dim, domain.topology.dim)
         dofs = fem.locate_dofs_topological(V, dim, entities)
         bcs.append(fem.dirichletbc(zero, dofs, V))

@@ -165,7 +165,7 @@ def shell_energy_density(
 ) -> Any:
     """Elastic energy per reference area (J/m²) of the module's constitutive law."""
     mu, t = shear_modulus, thickness
-    lam = 2.0 * poisson / (1.0 - poisson)  # λ_s/μ
+    lam = 2.0 * poisson / (1.0 - poisson)  # λ̂ = λ_s/μ
 
     def quad(s: Any) -> Any:
         return mu * (lam * ufl.tr(s) ** 2 + 2.0 * ufl.inner(s, s))
@@ -193,21 +193,12 @@ def _clamp_entities(case: Case, robot: RobotMesh) -> list[tuple[int, Any]]:
     (``create_robot_mesh``); the cells all of whose edges are clamped are
     added, so that the patch's interior nodes are held too.
     """
-    from magfem.geometry.robot_mesh import locate
+    from magfem.mechanics.problem import clamped_entities
 
     domain = robot.mesh
     tdim = domain.topology.dim
     out: list[tuple[int, Any]] = []
-    for i, name in enumerate(case.environment.clamped):
-        if name not in robot.groups and name != "robot":
-            if name == "clamp":
-                continue
-            raise CaseError(
-                f"environment.clamped[{i}]",
-                name,
-                "no such group; groups are " + ", ".join(sorted(robot.groups)),
-            )
-        dim, entities = locate(robot, name)
+    for dim, entities in clamped_entities(case, robot):
         out.append((dim, entities))
         if dim == 1:
             domain.topology.create_connectivity(tdim, 1)
