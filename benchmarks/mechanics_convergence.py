@@ -73,7 +73,10 @@ def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, 
         return None
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     angle_key = next(k for k in result.history if k.startswith("angle_"))
-    dofs = sim.u.function_space.dofmap.index_map.size_global * sim.gdim
+    dofs = sum(  # every unknown: the shell's angles too
+        f.function_space.dofmap.index_map.size_global * f.function_space.dofmap.index_map_bs
+        for f in sim.problem.unknowns
+    )
     timings = {k: comm.allreduce(v, op=MPI.MAX) for k, v in result.timings.items()}
     return {
         "time": result.history["time"],
