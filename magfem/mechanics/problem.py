@@ -113,6 +113,10 @@ class MembraneProblem:
             conditions of all of them.
         strain_metrics: UFL 2×2 or 3×3 right Cauchy–Green tensors whose largest
             stretch is the largest strain (the shell's two faces); None: FᵀF of u.
+        mass_density: mass per unit of the mesh's measure: ρ (kg/m³; kg/m² per
+            width for strips) or the shell's ρ t (kg/m²).
+        face_offset: height of the mesh above the robot's bottom face (m): 0, or
+            t/2 for the shell, whose mesh is its mid-surface.
     """
 
     robot: RobotMesh
@@ -128,12 +132,14 @@ class MembraneProblem:
     quadrature_degree: int
     field: FieldModel
     free_body: bool
+    mass_density: float
     self_contact: SelfContact | None = None
     impact_absorber: Any = None
     gravity: fem.Constant | None = None
     contact_law: Any = None
     unknowns: list[fem.Function] = dataclass_field(default_factory=list)
     strain_metrics: list[Any] | None = None
+    face_offset: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.unknowns:
@@ -278,7 +284,8 @@ def build_membrane_problem(
         dt: initial step (s), default ``case.time.step``.
 
     Raises:
-        CaseError: surface model, unknown groups, quasi-static free body.
+        CaseError: unknown groups, quasi-static free body (and the shell's
+            refusals, :func:`magfem.mechanics.shell.build_shell_problem`).
     """
     if case.mesh.model == "surface":
         from magfem.mechanics.shell import build_shell_problem
@@ -417,4 +424,5 @@ def build_membrane_problem(
         impact_absorber=absorber,
         gravity=g,
         contact_law=law,
+        mass_density=mat.density,
     )

@@ -346,8 +346,9 @@ def build_shell_problem(
             time_step=integ.dt if integ.dynamic else None,
         )
 
-    def faces(disp: Any, angles: Any, vel: Any, rate: Any) -> list[tuple[Any, Any, Any, Any]]:
-        """(x, v, δx_u, δx_θ) of each contacting face: position, velocity, test directions."""
+    def faces(disp: Any, angles: Any, vel: Any, rate: Any) -> list[tuple[Any, Any, Any]]:
+        """(x, v, ∂x/∂θ) of each contacting face: position, velocity, and the angle
+        derivative of the position (its virtual displacement is δu + ∂x/∂θ δθ)."""
         d = director(angles, frame)
         Jd = director_jacobian(angles, frame)  # 3×2
         out = []
@@ -355,17 +356,17 @@ def build_shell_problem(
             h = s * 0.5 * t
             x = X + disp + h * d  # the reference face is at X + h e_z
             v = vel + h * Jd * rate
-            out.append((x, v, w_u, h * Jd.T))
+            out.append((x, v, h * Jd))
         return out
 
     def contact_work(disp: Any, angles: Any, vel: Any, rate: Any) -> list[Any]:
         assert contact is not None
         work_u: Any = 0
         work_t: Any = 0
-        for x, v, wu, jt in faces(disp, angles, vel, rate):
+        for x, v, dx_dtheta in faces(disp, angles, vel, rate):
             traction = contact.traction(x, v)
-            work_u = work_u + ufl.dot(traction, wu) * dx
-            work_t = work_t + ufl.dot(jt * traction, w_t) * dx
+            work_u = work_u + ufl.dot(traction, w_u) * dx
+            work_t = work_t + ufl.dot(dx_dtheta.T * traction, w_t) * dx
         return [work_u, work_t]
 
     def residual(
@@ -389,7 +390,7 @@ def build_shell_problem(
 
     (su, sv, sa), (tu, tv, ta) = (p.stage() for p in parts)
     if integ.dynamic:
-        F_step = residual(su, tu, sv, tv, sa, ta, with_contact=contact is None)
+        F_step = residual(su, tu, sv, tv, sa, ta, with_contact=False)
         if contact is not None:
             # the ground acts at the end of the step, as for the solid (problem.py)
             cw = contact_work(u, theta, parts[0].velocity(), parts[1].velocity())
@@ -398,12 +399,13 @@ def build_shell_problem(
         zero3, zero2 = ufl.zero(3), ufl.zero(2)
         F_step = residual(u, theta, zero3, zero2, zero3, zero2, with_contact=True)
 
+    face_offset = 0.5 * t  # the mesh is the mid-surface
     absorber = None
     if contact is not None and integ.dynamic:
         from magfem.mechanics.contact import ImpactAbsorber
 
         absorber = ImpactAbsorber(
-            Vu, None, vertical=2, ground_height=case.contact.ground_height, offset=0.5 * t
+            Vu, None, vertical=2, ground_height=case.contact.ground_height, offset=face_offset
         )
 
     v1, w1 = parts[0].v0, parts[1].v0  # after advance(): the state at t_{n+1}
@@ -416,7 +418,7 @@ def build_shell_problem(
     }
     contact_forms: list[Any] = []
     if contact is not None:
-        tractions = [contact.traction(x, v) for x, v, _, _ in faces(u, theta, v1, w1)]
+        tractions = [contact.traction(x, v) for x, v, _ in faces(u, theta, v1, w1)]
         total = functools.reduce(operator.add, tractions)
         contact_forms = [total[i] * dx for i in range(3)]
     return MembraneProblem(
@@ -437,5 +439,7 @@ def build_shell_problem(
         gravity=g,
         contact_law=law,
         unknowns=[u, theta],
+        mass_density=mat.density * t,
+        face_offset=face_offset,
         strain_metrics=[kin.face_metric(-1.0, t), kin.face_metric(1.0, t)],
     )

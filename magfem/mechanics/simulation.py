@@ -411,8 +411,7 @@ class MembraneSimulation:
         g_v = float(np.asarray(g.value)[vertical])
         x = robot.mesh.geometry.x[:, vertical]
         lowest = self.comm.allreduce(float(x.min()) if x.size else np.inf, op=MPI.MIN)
-        if self.case.mesh.model == "surface":  # the shell's mesh is its mid-surface
-            lowest -= 0.5 * robot.thickness
+        lowest -= self.problem.face_offset  # the shell's mesh is its mid-surface
         if g_v >= 0.0 or lowest > contact.ground_height + 1e-9 * robot.thickness:
             return 0.0
         from magfem.mechanics.reference import penalty_penetration
@@ -485,9 +484,7 @@ class MembraneSimulation:
         down[-1] = -STANDARD_GRAVITY
         w = ufl.TestFunction(V)
         dx = ufl.dx(domain=V.mesh, metadata={"quadrature_degree": self.problem.quadrature_degree})
-        rho = self.case.material.density
-        if self.case.mesh.model == "surface":  # the shell: weight per area, ρ t g
-            rho = rho * self.robot.thickness
+        rho = self.problem.mass_density  # per unit of the mesh's measure
         weight = rho * ufl.dot(ufl.as_vector(down.tolist()), w) * dx
         return load_norm(weight, self.problem.displacement_bcs)
 
