@@ -17,7 +17,12 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from magfem.config import CaseError, from_table, to_table
-from magfem.geometry.robot_mesh import MIN_QUALITY, create_robot_mesh, locate
+from magfem.geometry.robot_mesh import (
+    MIN_QUALITY,
+    SHELL_CLAMP_INSET,
+    create_robot_mesh,
+    locate,
+)
 from magfem.geometry.spec import SHAPES, STRIP_SHAPES, MeshSpec, RobotSpec
 
 Q = 5  # volume quadrature: Gauss exact to degree 5 per direction = det J of Q2 hexahedra
@@ -299,7 +304,8 @@ def test_surface(shape, comm):
     assert abs(rel) < (2e-2 if shape in CURVED else 1e-12)
     x = rm.mesh.geometry.x
     assert np.allclose(x[:, 2], THICKNESS / 2)
-    if "clamp" in rm.groups:  # every clamp edge lies inside the bonded patch
+    if "clamp" in rm.groups:
+        # the clamp edges fill the bonded patch less SHELL_CLAMP_INSET t at its free edges
         dim, edges = locate(rm, "clamp")
         assert owned_count(rm, "clamp", comm) > 0
         rm.mesh.topology.create_connectivity(dim, 0)
@@ -307,9 +313,20 @@ def test_surface(shape, comm):
 
         pts = x[entities_to_geometry(rm.mesh, dim, edges)].reshape(-1, 3)
         if shape == "flower":
-            assert np.all(np.hypot(pts[:, 0], pts[:, 1]) <= r.params.clamp_diameter / 2 + 1e-9)
+            reach, edge = np.hypot(pts[:, 0], pts[:, 1]), r.params.clamp_diameter / 2
         else:
-            assert np.all(np.abs(pts[:, 0]) <= r.params.clamp_length / 2 + 1e-9)
+            reach, edge = np.abs(pts[:, 0]), r.params.clamp_length / 2
+        edge -= SHELL_CLAMP_INSET * THICKNESS
+        assert comm.allreduce(float(reach.max(initial=0.0)), op=MPI.MAX) == pytest.approx(edge)
+
+
+@pytest.mark.parametrize(
+    ("shape", "key"), [("rectangle", "clamp_length"), ("star", "clamp_radius")]
+)
+def test_surface_refuses_a_patch_shorter_than_its_clamp_inset(shape, key, comm):
+    r = robot(shape, **{key: 0.3 * SHELL_CLAMP_INSET * THICKNESS})
+    with pytest.raises(CaseError, match=r"mesh\.model.*clamp inset"):
+        create_robot_mesh(r, meshspec(size=r.min_feature / 2, model="surface"), comm)
 
 
 def test_write_msh(shared_tmp, comm):

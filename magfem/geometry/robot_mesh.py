@@ -29,6 +29,7 @@ solid, edges of the strip and surface): ``bottom`` (z = 0 minus the clamp),
 ``clamp`` are disjoint: the whole ground-facing face is ``("bottom",
 "clamp")`` (use :func:`group_tags` for ``ds``). In the surface model there
 is no ``bottom``/``top``; ``clamp`` holds every edge inside the bonded patch
+less :data:`SHELL_CLAMP_INSET` thicknesses at its free edges
 (computed geometrically after distribution, so Dirichlet conditions on it
 fix every node of the patch).
 """
@@ -49,7 +50,15 @@ from magfem.geometry.gmshio import build_mesh
 from magfem.geometry.robots import BeamOutline, Outline, outline_of
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 
-__all__ = ["Arm", "MeshQualityError", "RobotMesh", "create_robot_mesh", "group_tags", "locate"]
+__all__ = [
+    "SHELL_CLAMP_INSET",
+    "Arm",
+    "MeshQualityError",
+    "RobotMesh",
+    "create_robot_mesh",
+    "group_tags",
+    "locate",
+]
 
 QUALITY_METRIC = "minSJ"
 """gmsh element quality used: minimum scaled Jacobian (1 for undistorted
@@ -57,6 +66,23 @@ boxes of any aspect ratio, <= 0 for inverted elements)."""
 
 MIN_QUALITY = 0.1
 """Meshes whose worst element has a smaller scaled Jacobian are rejected."""
+
+SHELL_CLAMP_INSET = 0.41
+"""Clamp inset of the shell model, in thicknesses.
+
+A membrane whose bottom face is bonded to the substrate is not clamped
+rigidly where it leaves the bond: the material near that edge shears and
+lifts (a corner of the plane-strain side view, a region ~t in size), and the
+free part bends as if it were longer. A shell cannot resolve that region;
+it holds u and θ on the bonded patch shrunk by this many thicknesses at the
+edges where the free membrane leaves it (:func:`magfem.geometry.robots.
+outline_of`, ``clamp_inset``). Measured on the static hard-magnetic
+cantilever: the resolved plane-strain strip (K = 100 μ, bonded patch) bends
+like the elastica of the free length + α t with one α at every load
+(0.1–0.4 mT), α = 0.396, 0.406, 0.411 with 4, 8, 16 P2 layers through the
+thickness; the plane-stress strip (a narrow arm) gives 0.27
+(``benchmarks/clamp_compliance.py``, docs/verification.md §1). The arms of
+the robots are 10–50 thicknesses wide, where the side view is in plane strain."""
 
 
 class MeshQualityError(RuntimeError):
@@ -432,13 +458,25 @@ def create_robot_mesh(
         msh_path: if given, rank 0 also writes the gmsh ``.msh`` file.
 
     Raises:
-        CaseError: ``mesh`` incompatible with ``robot`` (size, strip model).
+        CaseError: ``mesh`` incompatible with ``robot`` (size, strip model, a bonded
+            patch too short for the shell's clamp inset).
         GmshError: gmsh failed, made mixed cell types or elements of
             quality below :data:`MIN_QUALITY` (message from rank 0).
     """
     check_mesh_for_robot(robot, mesh)
     outline = outline_of(robot)
-    gmsh_outline = outline
+    meshed = outline  # the outline the mesh resolves (the shell: its clamp patch inset)
+    if mesh.model == "surface":
+        try:
+            meshed = outline_of(robot, clamp_inset=SHELL_CLAMP_INSET * robot.thickness)
+        except ValueError as err:
+            raise CaseError(
+                "mesh.model",
+                mesh.model,
+                f"the shell clamps the bonded patch less {SHELL_CLAMP_INSET:g} thicknesses at its "
+                f"free edges, and {err}: use mesh.model = 'solid' or a longer bonded patch",
+            ) from None
+    gmsh_outline = meshed
     if mesh.size_across is not None and mesh.size_across != mesh.size:
         if not isinstance(outline, BeamOutline):
             raise CaseError(
@@ -447,7 +485,7 @@ def create_robot_mesh(
                 f"needs arms along the x axis (rectangle, trapezoid, triangle, two-arm, bow-tie "
                 f"shapes); '{robot.shape}' has arms in other directions: leave it out",
             )
-        gmsh_outline = _StretchedOutline(outline, mesh.size / mesh.size_across)
+        gmsh_outline = _StretchedOutline(meshed, mesh.size / mesh.size_across)
     info: dict[str, Any] = {}
     gdim = 2 if mesh.model == "strip" else 3
     data = build_mesh(
@@ -461,7 +499,7 @@ def create_robot_mesh(
     groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in data.physical_groups.items()}
     facet_tags = data.facet_tags
     if mesh.model == "surface":
-        facet_tags, clamp_tag = _surface_clamp(data, outline, robot)
+        facet_tags, clamp_tag = _surface_clamp(data, meshed, robot)
         if clamp_tag is not None:
             groups["clamp"] = (1, clamp_tag)
     t = robot.thickness

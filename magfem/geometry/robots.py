@@ -32,6 +32,7 @@ rounded petal end of radius p.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from abc import ABC, abstractmethod
@@ -383,8 +384,47 @@ class MantaOutline(Outline):
 # --- dispatch -------------------------------------------------------------------------------
 
 
-def outline_of(robot: RobotSpec) -> Outline:
-    """The :class:`Outline` of a validated robot spec (robot frame, SI units)."""
+def outline_of(robot: RobotSpec, *, clamp_inset: float = 0.0) -> Outline:
+    """The :class:`Outline` of a validated robot spec (robot frame, SI units).
+
+    ``clamp_inset`` (m) moves the edges of the clamp patch where the free
+    membrane leaves it that far into the patch (the root strip's free end,
+    the middle patch's two ends, the bonded disk's rim); the robot's own
+    outline is unchanged. The shell model clamps this smaller patch to stand
+    for the root compliance of a bonded membrane
+    (:data:`magfem.geometry.robot_mesh.SHELL_CLAMP_INSET`).
+
+    Raises:
+        ValueError: ``clamp_inset`` < 0 or not shorter than the patch (the
+            caller names the case entry).
+    """
+    if clamp_inset < 0:
+        raise ValueError(f"clamp_inset {clamp_inset:g} m must be >= 0")
+    outline = _outline_of(robot)
+    if clamp_inset == 0.0 or not outline.clamped:
+        return outline
+    if isinstance(outline, BeamOutline):
+        beams = []
+        for b in outline.beams:
+            if b.clamp_length > 0 and b.clamp_length <= clamp_inset:
+                raise ValueError(
+                    f"the clamp patch of {b.name} ({b.clamp_length:g} m from its root) is not "
+                    f"longer than the clamp inset {clamp_inset:g} m"
+                )
+            inset = clamp_inset if b.clamp_length > 0 else 0.0
+            beams.append(b._replace(clamp_length=b.clamp_length - inset))
+        return BeamOutline(tuple(beams))
+    if isinstance(outline, RadialOutline):
+        if outline.clamp_radius <= clamp_inset:
+            raise ValueError(
+                f"the bonded disk (radius {outline.clamp_radius:g} m) is not larger than the "
+                f"clamp inset {clamp_inset:g} m"
+            )
+        return dataclasses.replace(outline, clamp_radius=outline.clamp_radius - clamp_inset)
+    raise ValueError(f"outline_of: no clamp inset for {type(outline).__name__}")
+
+
+def _outline_of(robot: RobotSpec) -> Outline:
     p = robot.params
     shape = robot.shape
     if shape == "rectangle":

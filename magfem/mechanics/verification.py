@@ -64,6 +64,7 @@ def cantilever_case(
     bulk_modulus: float | None = None,
     environment: dict[str, Any] | None = None,
     size_across: float | None = None,
+    layers: int = 1,
     **tables: Any,
 ) -> Case:
     """The cantilever's case; ``tables`` (``field``, ``time``, ...) are added as they are.
@@ -75,6 +76,7 @@ def cantilever_case(
         environment: the ``[environment]`` table; default no gravity and the
             bonded root strip as the support.
         size_across: ``mesh.size_across`` (m), None: ``size``.
+        layers: ``mesh.layers`` (elements through the thickness).
     """
     material: dict[str, Any] = {
         "shear_modulus": SHEAR_MODULUS,
@@ -94,7 +96,7 @@ def cantilever_case(
                 "width": width,
                 "clamp_length": CLAMP_LENGTH,
             },
-            "mesh": {"size": size, "model": model}
+            "mesh": {"size": size, "model": model, "layers": layers}
             | ({} if size_across is None else {"size_across": size_across}),
             "material": material,
             "environment": environment or _NO_GRAVITY,
@@ -134,25 +136,43 @@ def rigid_root_block(width: float) -> dict[str, Any]:
     }
 
 
-def elastica_chord_angle(load: float) -> float:
+def elastica_chord_angle(load: float, free_length: float = FREE_LENGTH) -> float:
     """Reference observable (rad): angle of the chord over the last TIP_OFFSET·L of the arm.
 
     The hard-magnetic elastica of the free length at load λ, field along −x,
     observed like the simulation's ``angle_arm`` (TIP_OFFSET is a fraction of
-    the whole length L, root strip included).
+    the whole length L, root strip included). ``free_length`` (m): the rod's
+    length, default the arm beyond the bonded patch.
     """
     sol = ref.hard_magnetic_elastica(load, field_angle=math.pi)
-    s1 = 1.0 - 1e-9 * LENGTH / FREE_LENGTH
-    s0 = s1 - TIP_OFFSET * LENGTH / FREE_LENGTH
+    s1 = 1.0 - 1e-9 * LENGTH / free_length
+    s0 = s1 - TIP_OFFSET * LENGTH / free_length
     x = np.interp([s0, s1], sol.s, sol.x)
     y = np.interp([s0, s1], sol.s, sol.y)
     return math.atan2(y[1] - y[0], x[1] - x[0])
 
 
-def elastica_reference_angles(modulus: float, fields: Any) -> npt.NDArray[np.float64]:
-    """Elastica chord angles (rad) at the flux densities ``fields`` (T), bending modulus E' (Pa)."""
-    loads = [ref.elastica_load(REMANENCE, b, FREE_LENGTH, THICKNESS, modulus) for b in fields]
-    return np.array([elastica_chord_angle(lam) for lam in loads])
+def elastica_reference_angles(
+    modulus: float, fields: Any, free_length: float = FREE_LENGTH
+) -> npt.NDArray[np.float64]:
+    """Elastica chord angles (rad) at the flux densities ``fields`` (T), bending modulus E' (Pa),
+    of a rod ``free_length`` long (m)."""
+    loads = [ref.elastica_load(REMANENCE, b, free_length, THICKNESS, modulus) for b in fields]
+    return np.array([elastica_chord_angle(lam, free_length) for lam in loads])
+
+
+def clamp_inset_of(modulus: float, field: float, angle: float) -> float:
+    """Root compliance of a static run as a clamp inset (thicknesses): the α for which the
+    elastica of free length FREE_LENGTH + α·THICKNESS has the chord angle ``angle`` (rad) at
+    ``field`` (T), bending modulus ``modulus`` (Pa). α = 0: the rod's rigid clamp at the edge
+    of the bonded patch."""
+    from scipy.optimize import brentq
+
+    def mismatch(alpha: float) -> float:
+        free = FREE_LENGTH + alpha * THICKNESS
+        return elastica_reference_angles(modulus, [field], free)[0] - angle
+
+    return float(brentq(mismatch, -2.0, 3.0, xtol=1e-6))
 
 
 def static_tip_angles(
@@ -168,6 +188,7 @@ def static_tip_angles(
     environment: dict[str, Any] | None = None,
     step: float | None = None,
     size_across: float | None = None,
+    layers: int = 1,
 ) -> tuple[MembraneSimulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
 
@@ -175,7 +196,7 @@ def static_tip_angles(
     then evaluated at the field the step did reach (B = t × b_max).
     ``environment`` replaces the default support (the bonded root strip);
     ``step`` is the first quasi-static step (default: the first fraction);
-    ``size_across`` as in :func:`cantilever_case`.
+    ``size_across`` and ``layers`` as in :func:`cantilever_case`.
     """
     case = cantilever_case(
         model,
@@ -186,6 +207,7 @@ def static_tip_angles(
         bulk_modulus=bulk_modulus,
         environment=environment,
         size_across=size_across,
+        layers=layers,
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
     )
