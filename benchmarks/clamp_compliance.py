@@ -15,8 +15,8 @@ Plane strain is the side view of a wide arm (the robots' arms are 10-50 t
 wide), plane stress that of a narrow one (the strip's incompressible-limit
 law, bending modulus 3μ).
 
-    .venv/bin/python benchmarks/clamp_compliance.py              # 3 levels per plane (~2 min)
-    .venv/bin/python benchmarks/clamp_compliance.py --finest     # + 16 layers (~10 min more)
+    .venv/bin/python benchmarks/clamp_compliance.py              # 3 levels per plane (~1.5 min)
+    .venv/bin/python benchmarks/clamp_compliance.py --finest     # + 16 layers (~6 min more)
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def main() -> None:
                 f"{plane:7} {layers:6d} {size * 1e6:7.2f} {vc.global_dofs(sim):7d} {wall:6.1f}  "
                 f"{cells}"
             )
-    report.add(f"shell model: SHELL_CLAMP_INSET = {SHELL_CLAMP_INSET:g} (plane strain, wide arms)")
+    report.add(f"shell model: SHELL_CLAMP_INSET = {SHELL_CLAMP_INSET:g}")
     report.print()
 
 

@@ -87,32 +87,49 @@ def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, 
         "steps": int(result.summary["steps"]),
         "newton": result.summary["mean_newton_iterations"],
         "cuts": int(result.summary["cuts"]),
+        "degree": case.solver.degree,
+        "ranks": comm.size,
+        "force_tolerance": case.solver.force_tolerance,
     }
 
 
-def compare(run: dict[str, Any], reference: dict[str, Any]) -> tuple[float, float]:
-    """(max |Δangle| over the window, |Δangle| at its end), degrees."""
+def compare(
+    run: dict[str, Any], reference: dict[str, Any], until: float | None = None
+) -> tuple[float, float]:
+    """(max |Δangle| over the window or over t <= ``until``, |Δangle| at its end), degrees."""
     ref_on_run = np.interp(run["time"], reference["time"], reference["angle"])
     diff = np.degrees(np.abs(run["angle"] - ref_on_run))
-    return float(diff.max()), float(diff[-1])
+    early = diff if until is None else diff[np.asarray(run["time"]) <= until * (1 + 1e-9)]
+    return float(early.max()), float(diff[-1])
 
 
-def table(title: str, rows: list[dict[str, Any]], reference: dict[str, Any]) -> list[str]:
+def _label(r: dict[str, Any]) -> str:
+    """``shell``, ``shell P3`` (element degree other than 2), ``solid``, ``strip``."""
+    degree = r.get("degree", 2)
+    return r["model"] + ("" if degree == 2 else f" P{degree}")
+
+
+def table(
+    title: str, rows: list[dict[str, Any]], reference: dict[str, Any], early: float | None = None
+) -> list[str]:
+    """The runs against ``reference``; with ``early`` a column of the largest error up to it."""
+    early_head = "" if early is None else f" {f'≤{early * 1e3:g}ms°':>8}"
     lines = [
         title,
-        f"{'model':6} {'size mm':>7} {'dt ms':>6} {'dofs':>6} {'steps':>5} {'newton':>6} "
-        f"{'cuts':>4} {'wall s':>7} {'compile':>7} {'resid':>6} {'jacob':>6} {'solve':>6} "
-        f"{'max err°':>8} {'end err°':>8} {'end angle°':>10}",
+        f"{'model':8} {'size mm':>9} {'dt ms':>6} {'np':>2} {'ftol':>4} {'dofs':>6} {'steps':>5} "
+        f"{'newton':>6} {'cuts':>4} {'wall s':>7} {'compile':>7} {'resid':>6} {'jacob':>6} "
+        f"{'solve':>6}{early_head} {'max err°':>8} {'end err°':>8} {'end angle°':>10}",
     ]
     for r in rows:
         err_max, err_end = compare(r, reference)
+        cell = "" if early is None else f" {compare(r, reference, early)[0]:8.3f}"
         t = r["timings"]
         lines.append(
-            f"{r['model']:6} {_size_label(r['size'], r.get('across')):>7} "
-            f"{r['dt'] * 1e3:6.3g} {r['dofs']:6d} "
-            f"{r['steps']:5d} {r['newton']:6.2f} {r['cuts']:4d} {r['wall']:7.1f} "
+            f"{_label(r):8} {_size_label(r['size'], r.get('across')):>9} "
+            f"{r['dt'] * 1e3:6.3g} {r.get('ranks', '-'):>2} {r.get('force_tolerance', 0):4.2g} "
+            f"{r['dofs']:6d} {r['steps']:5d} {r['newton']:6.2f} {r['cuts']:4d} {r['wall']:7.1f} "
             f"{t.get('compile', math.nan):7.1f} {t.get('residual', math.nan):6.1f} "
-            f"{t.get('jacobian', math.nan):6.1f} {t.get('linear_solve', math.nan):6.1f} "
+            f"{t.get('jacobian', math.nan):6.1f} {t.get('linear_solve', math.nan):6.1f}{cell} "
             f"{err_max:8.3f} {err_end:8.3f} {math.degrees(r['angle'][-1]):10.3f}"
         )
     return lines
@@ -158,6 +175,13 @@ def main() -> None:
     parser.add_argument("--strip-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3, 0.25e-3])
     parser.add_argument("--solid-sizes", type=float, nargs="+", default=[1e-3, 0.5e-3])
     parser.add_argument("--skip-strip", action="store_true")
+    parser.add_argument(
+        "--set",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="case overrides for every run, e.g. solver.force_tolerance=0.1",
+    )
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument(
         "--load",
@@ -172,10 +196,17 @@ def main() -> None:
         default=None,
         help="compare with the last run of this --json file instead of this command's finest",
     )
+    parser.add_argument(
+        "--early",
+        type=float,
+        default=None,
+        metavar="T",
+        help="add a column: the largest error up to T (s), e.g. 0.012 for the first swing",
+    )
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     common = [f"time.end={args.window}", "output.csv=false", "output.vtx_every=0"]
-    common.append("output.plot=false")
+    common += ["output.plot=false", *args.set]
     rank0_print(f"{comm.size} rank(s); window {args.window * 1e3:g} ms")
 
     # --- default case: mesh x step grid -----------------------------------------------------
@@ -209,6 +240,7 @@ def main() -> None:
         f"{Path(args.case).name}, first {args.window * 1e3:g} ms; errors vs the reference",
         rows,
         reference,
+        args.early,
     )
 
     # --- strip against solid on a uniform-width arm -----------------------------------------
@@ -235,7 +267,7 @@ def main() -> None:
         lines += ["", *table(title, strip_rows, solid_ref)]
         rows += strip_rows
     lines += [
-        f"reference: {reference['model']} {_size_label(reference['size'], reference.get('across'))}"
+        f"reference: {_label(reference)} {_size_label(reference['size'], reference.get('across'))}"
         f" mm, dt "
         f"{reference['dt'] * 1e3:g} ms"
     ]

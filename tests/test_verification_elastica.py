@@ -172,8 +172,8 @@ def test_bonded_root_compliance_is_the_shell_clamp_inset(comm):
     resolved to t/8. Matching each tip angle with the elastica of a longer rod
     gives the root compliance α (thicknesses); measured
     (``benchmarks/clamp_compliance.py``): 0.397/0.396/0.396/0.394 at the four
-    loads here, 0.408–0.405 with 8 layers, 0.41 at 16, which is
-    SHELL_CLAMP_INSET. Checks: α is one number across loads 2–9 (spread < 0.01:
+    loads here, 0.408–0.405 with 8 layers, 0.413–0.410 with 16 (SHELL_CLAMP_INSET =
+    0.41; plane stress gives the same α). Checks: α is one number across loads 2–9 (spread < 0.01:
     a local, length-like compliance, which an inset can stand for) and within
     0.03 of SHELL_CLAMP_INSET (the distance of this level from the finest,
     doubled). The rigid-clamp rod (α = 0) is 0.29° off at 0.1 mT.

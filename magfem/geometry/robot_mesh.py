@@ -77,12 +77,11 @@ free part bends as if it were longer. A shell cannot resolve that region;
 it holds u and θ on the bonded patch shrunk by this many thicknesses at the
 edges where the free membrane leaves it (:func:`magfem.geometry.robots.
 outline_of`, ``clamp_inset``). Measured on the static hard-magnetic
-cantilever: the resolved plane-strain strip (K = 100 μ, bonded patch) bends
-like the elastica of the free length + α t with one α at every load
-(0.1–0.4 mT), α = 0.396, 0.406, 0.411 with 4, 8, 16 P2 layers through the
-thickness; the plane-stress strip (a narrow arm) gives 0.27
-(``benchmarks/clamp_compliance.py``, docs/verification.md §1). The arms of
-the robots are 10–50 thicknesses wide, where the side view is in plane strain."""
+cantilever: the resolved strip (K = 100 μ, bonded patch) bends like the
+elastica of the free length + α t with one α at every load (0.1–0.4 mT),
+α = 0.396, 0.407, 0.412 (plane strain) and 0.395, 0.409, 0.415 (plane
+stress) with 4, 8, 16 P2 layers through the thickness, converging to
+0.41–0.42 (``benchmarks/clamp_compliance.py``, docs/verification.md §1)."""
 
 
 class MeshQualityError(RuntimeError):
