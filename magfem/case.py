@@ -69,8 +69,9 @@ class Case:
 
         The magnetoelastic length ℓ (:func:`magfem.material.magnetoelastic_length`)
         at the field amplitude bound (the sum of the sources' nominal flux
-        densities) and the elements of ``mesh.size`` per ℓ; about 3 give ~1°
-        (docs/verification.md §4a). None without a magnetisation or a nominal field.
+        densities) and the elements of ``mesh.size`` per ℓ; about 3 P2 or 1.7 P3
+        elements give ~1° (docs/verification.md §4a, §4c). None without a
+        magnetisation or a nominal field.
         """
         from magfem import material
 
@@ -83,8 +84,8 @@ class Case:
         )
         return (
             f"magnetoelastic length {ell * 1e3:.3g} mm at {flux * 1e3:g} mT: "
-            f"{ell / self.mesh.size:.2g} element(s) per length (about 3 resolve a bend to "
-            "~1 deg, docs/verification.md 4a)"
+            f"{ell / self.mesh.size:.2g} element(s) per length (about 3 P2 or 1.7 P3 elements "
+            "resolve a bend to ~1 deg, docs/verification.md 4a, 4c)"
         )
 
 
