@@ -39,6 +39,7 @@ from mpi4py import MPI
 
 import magfem  # noqa: F401
 from magfem import material
+from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
 from magfem.mechanics import reference as ref
 from magfem.mechanics import verification as vc
 
@@ -198,6 +199,11 @@ def main() -> None:
     if not args.quick:
         fconfigs.append(("solid, 0.25 mm wide", "solid", 0.25e-3, "strain", f_beam, [0.25e-3]))
         fconfigs.append(("solid, 2 mm wide", "solid", 2e-3, "strain", f_plate, [1e-3, 0.5e-3]))
+        # the shell's rod is clamped at the inset patch edge: free length + SHELL_CLAMP_INSET h
+        f_shell = ref.cantilever_frequency(E, RHO, H, FREE + SHELL_CLAMP_INSET * H)
+        fconfigs.append(
+            ("shell, 0.25 mm wide (+inset)", "surface", 0.25e-3, "strain", f_shell, [5e-4, 2.5e-4])
+        )
     for title, model, width, plane, f_ref, sizes in fconfigs:
         for size in sizes:
             f, dofs, wall = frequency_row(comm, model, size, width, plane, f_ref)

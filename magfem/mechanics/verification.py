@@ -218,16 +218,17 @@ def static_tip_angles(
     return sim, t[rows] * b_max, angle[rows]
 
 
-def first_mode(x: Any) -> tuple[Any, Any]:
-    """Clamped–free mode φ₁ (1) and φ₁' (1/m) at x (m), zero on the root x <= CLAMP_LENGTH.
+def first_mode(x: Any, clamp: float = CLAMP_LENGTH) -> tuple[Any, Any]:
+    """Clamped–free mode φ₁ (1) and φ₁' (1/m) at x (m), zero on the root x <= ``clamp`` (m).
 
-    Normalised to φ₁ = 1 at the tip (Euler–Bernoulli; eigenvalue from
-    :func:`reference.cantilever_eigenvalue`).
+    The rod runs from ``clamp`` to the arm's end (LENGTH). Normalised to φ₁ = 1
+    at the tip (Euler–Bernoulli; eigenvalue from :func:`reference.cantilever_eigenvalue`).
     """
-    b = ref.cantilever_eigenvalue(1) / FREE_LENGTH
-    bl = b * FREE_LENGTH
+    free = LENGTH - clamp
+    b = ref.cantilever_eigenvalue(1) / free
+    bl = b * free
     sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
-    s = np.maximum(x - CLAMP_LENGTH, 0.0)
+    s = np.maximum(x - clamp, 0.0)
     phi = 0.5 * (np.cosh(b * s) - np.cos(b * s) - sig * (np.sinh(b * s) - np.sin(b * s)))
     dphi = 0.5 * b * (np.sinh(b * s) + np.sin(b * s) - sig * (np.cosh(b * s) - np.cos(b * s)))
     return phi, dphi
@@ -265,9 +266,14 @@ def measured_frequency(
 
     The push is the velocity of the first mode with Kirchhoff kinematics:
     v_z = A φ₁(x), v_x = −(z − h/2) A φ₁'(x), A = ``amplitude`` (m/s; 1 mm/s
-    gives a tip amplitude of ~0.4°, linear). Generalized-α with ρ∞ = 1 (no
+    gives a tip amplitude of ~0.4°, linear); the shell (``surface``) gets
+    v_z on its mid-surface and the director rate θ̇₁ = −A φ₁' instead, with
+    the mode of its rod (clamped at the inset patch edge, :data:`magfem.
+    geometry.robot_mesh.SHELL_CLAMP_INSET`). Generalized-α with ρ∞ = 1 (no
     numerical dissipation) at Δt = T/80 for 2.2 periods T = 1/``expected``.
     """
+    from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
+
     period = 1.0 / expected
     case = cantilever_case(
         model,
@@ -276,26 +282,40 @@ def measured_frequency(
         plane,
         name="frequency",
         remanence=0.0,
+        size_across=min(size, width) if model == "surface" else None,
         time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
     )
     sim = MembraneSimulation(case, comm)
     vertical = sim.gdim - 1
+    shell = model == "surface"
+    clamp = CLAMP_LENGTH - (SHELL_CLAMP_INSET * THICKNESS if shell else 0.0)
 
     def push(X: Any) -> Any:
-        phi, dphi = first_mode(X[0])
+        phi, dphi = first_mode(X[0], clamp)
         v = np.zeros((sim.gdim, X.shape[1]))
         v[0] = -(X[vertical] - THICKNESS / 2) * amplitude * dphi
         v[vertical] = amplitude * phi
         return v
 
     sim.integrator.v0.interpolate(push)
+    if shell:  # the director turns with the midline's slope: d_x = sin θ₁ ≈ −w'
+
+        def turn(X: Any) -> Any:
+            rate = np.zeros((2, X.shape[1]))
+            rate[1] = -amplitude * first_mode(X[0], clamp)[1]
+            return rate
+
+        sim.integrator.parts[1].v0.interpolate(turn)
     history = sim.run(None, progress=False).history
     return sim, free_vibration_frequency(history["time"], history["angle_arm"])
 
 
 def global_dofs(sim: MembraneSimulation) -> int:
-    """Number of displacement unknowns over all ranks."""
-    return int(sim.u.function_space.dofmap.index_map.size_global * sim.gdim)
+    """Number of unknowns over all ranks (the shell's director angles included)."""
+    return sum(
+        int(f.function_space.dofmap.index_map.size_global * f.function_space.dofmap.index_map_bs)
+        for f in sim.problem.unknowns
+    )
 
 
 # --- ground membrane ---------------------------------------------------------------------------
