@@ -19,6 +19,11 @@ Run on 2 cores (timings vary ~30 % between identical runs)::
     .venv/bin/python benchmarks/mechanics_convergence.py --window 0.005 --sizes 2e-3 1e-3 \\
         --steps 1e-3 5e-4      # quick look
 
+``--set KEY=VALUE ...`` passes case overrides to every run (e.g.
+``solver.degree=3 solver.force_tolerance=0.1``, the shell configuration of
+docs/verification.md §4c); ``--early T`` adds a column with the largest
+error up to T.
+
 Prints the tables (rank 0) and writes the runs as JSON with ``--json PATH``
 (after every run); ``--load`` prints the table of saved runs again and
 ``--reference`` compares with the last run of another file, e.g. a finer
