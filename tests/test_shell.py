@@ -176,3 +176,30 @@ def test_mpi_shell_run_reproduces_serial_angle_history(comm):
 def test_shell_rejects_what_it_does_not_model(comm, tables, key):
     with pytest.raises(CaseError, match=key.replace(".", r"\.")):
         MembraneSimulation(_case(**tables), comm)
+
+
+def test_shell_fixed_point_holds_the_nodes_within_its_radius(comm):
+    """``[environment] fixed_point`` on the shell: the displacement of every mid-surface node
+    within ``fixed_radius`` of the point is held (and of no other), the angles stay free, and
+    the driven arm moves around it (the same node search as the solid's,
+    ``problem.fixed_point_dofs``)."""
+    point, radius = [3.75e-3, 2e-3, 40e-6], 0.6e-3
+    case = _case(
+        robot={"clamp_length": 0.0},
+        environment={"clamped": [], "fixed_point": point, "fixed_radius": radius},
+        time={"end": "2 ms", "step": "0.25 ms"},
+    )
+    sim = MembraneSimulation(case, comm)
+    Vu = sim.u.function_space
+    (bc,) = sim.problem.displacement_bcs
+    held = np.zeros(Vu.dofmap.index_map.size_local + Vu.dofmap.index_map.num_ghosts, bool)
+    held[bc.dof_indices()[0] // 3] = True
+    near = np.linalg.norm(Vu.tabulate_dof_coordinates() - point, axis=1) <= radius
+    assert np.array_equal(held, near)
+    assert comm.allreduce(int(near[: Vu.dofmap.index_map.size_local].sum())) >= 3
+    assert len(sim.problem.bcs) == 1  # nothing on the angles
+    sim.run(None, progress=False)
+    u = sim.u.x.array.reshape(-1, 3)
+    assert np.all(u[held] == 0.0)
+    moved = comm.allreduce(float(np.abs(u).max(initial=0.0)), op=MPI.MAX)
+    assert moved > 1e-6, moved  # the field turns the arm about the held patch

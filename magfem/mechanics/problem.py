@@ -34,6 +34,7 @@ from dataclasses import field as dataclass_field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 import ufl
 from dolfinx import fem
 from dolfinx import mesh as dmesh
@@ -148,7 +149,7 @@ class MembraneProblem:
     @property
     def displacement_bcs(self) -> list[fem.DirichletBC]:
         """The conditions of ``bcs`` on the displacement u."""
-        V = self.u.function_space
+        V = self.u.function_space._cpp_object  # what DirichletBC.function_space returns
         return [bc for bc in self.bcs if bc.function_space == V]
 
 
@@ -211,6 +212,25 @@ def clamped_entities(case: Case, robot: RobotMesh) -> list[tuple[int, Any]]:
     return out
 
 
+def fixed_point_dofs(case: Case, V: fem.FunctionSpace) -> npt.NDArray[np.int32]:
+    """Local nodes of ``V`` held by ``[environment] fixed_point``/``fixed_radius`` (collective).
+
+    The nodes within ``fixed_radius`` of the point, or the nearest node(s)
+    when none is that close. Strip meshes (gdim 2) use (x, z) of the point.
+    """
+    env = case.environment
+    if env.fixed_point is None:
+        raise ValueError("fixed_point_dofs: the case has no [environment] fixed_point")
+    gdim = V.mesh.geometry.dim
+    given = np.asarray(env.fixed_point, dtype=float)
+    point = np.zeros(3)
+    point[:gdim] = given[:gdim] if gdim == 3 else given[::2]
+    dist = np.linalg.norm(V.tabulate_dof_coordinates() - point, axis=1)
+    nearest = V.mesh.comm.allreduce(dist.min() if dist.size else np.inf, op=MPI.MIN)
+    radius = max(env.fixed_radius, nearest * (1 + 1e-9) + 1e-15)
+    return np.flatnonzero(dist <= radius).astype(np.int32)
+
+
 def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list, bool]:
     """Dirichlet conditions of ``[environment]``; returns (bcs, free_body)."""
     domain = robot.mesh
@@ -223,14 +243,7 @@ def _supports(case: Case, robot: RobotMesh, V: fem.FunctionSpace) -> tuple[list,
         dofs = fem.locate_dofs_topological(V, dim, entities)
         bcs.append(fem.dirichletbc(zero, dofs, V))
     if env.fixed_point is not None:
-        point = np.zeros(3)
-        point[:gdim] = np.asarray(env.fixed_point)[:gdim] if gdim == 3 else env.fixed_point[::2]
-        coords = V.tabulate_dof_coordinates()
-        dist = np.linalg.norm(coords - point, axis=1)
-        nearest = domain.comm.allreduce(dist.min() if dist.size else np.inf, op=MPI.MIN)
-        radius = max(env.fixed_radius, nearest * (1 + 1e-9) + 1e-15)
-        dofs = np.flatnonzero(dist <= radius).astype(np.int32)
-        bcs.append(fem.dirichletbc(zero, dofs, V))
+        bcs.append(fem.dirichletbc(zero, fixed_point_dofs(case, V), V))
     has_any = domain.comm.allreduce(sum(len(bc.dof_indices()[0]) for bc in bcs), op=MPI.SUM) > 0
     return bcs, not has_any
 

@@ -207,8 +207,9 @@ def _clamp_entities(case: Case, robot: RobotMesh) -> list[tuple[int, Any]]:
             edges = domain.topology.index_map(1)
             held = np.zeros(edges.size_local + edges.num_ghosts, dtype=bool)
             held[entities] = True
-            cells = [c for c in range(n_cells) if held[c2e.links(c)].all()]
-            out.append((tdim, np.asarray(cells, dtype=np.int32)))
+            per_cell = int(c2e.offsets[1] - c2e.offsets[0])  # one cell type: 3 or 4 edges
+            rows = held[c2e.array[: n_cells * per_cell]].reshape(n_cells, per_cell)
+            out.append((tdim, np.flatnonzero(rows.all(axis=1)).astype(np.int32)))
     return out
 
 
@@ -217,6 +218,8 @@ def _supports(
 ) -> tuple[list[fem.DirichletBC], list[fem.DirichletBC], bool]:
     """(bcs on u, bcs on θ, free body) of ``[environment]`` for the shell."""
     from mpi4py import MPI
+
+    from magfem.mechanics.problem import fixed_point_dofs
 
     domain = robot.mesh
     Vu, Vt = spaces
@@ -228,15 +231,8 @@ def _supports(
             dofs = fem.locate_dofs_topological(V, dim, entities)
             zero = np.zeros(V.dofmap.index_map_bs, dtype=np.float64)
             out.append(fem.dirichletbc(zero, dofs, V))
-    env = case.environment
-    if env.fixed_point is not None:
-        point = np.asarray(env.fixed_point, dtype=float)
-        coords = Vu.tabulate_dof_coordinates()
-        dist = np.linalg.norm(coords - point, axis=1)
-        nearest = domain.comm.allreduce(dist.min() if dist.size else np.inf, op=MPI.MIN)
-        radius = max(env.fixed_radius, nearest * (1 + 1e-9) + 1e-15)
-        dofs = np.flatnonzero(dist <= radius).astype(np.int32)
-        bcs_u.append(fem.dirichletbc(np.zeros(3), dofs, Vu))
+    if case.environment.fixed_point is not None:
+        bcs_u.append(fem.dirichletbc(np.zeros(3), fixed_point_dofs(case, Vu), Vu))
     held = sum(len(bc.dof_indices()[0]) for bc in bcs_u)
     free = domain.comm.allreduce(held, op=MPI.SUM) == 0
     return bcs_u, bcs_t, free

@@ -315,14 +315,13 @@ class MembraneSimulation:
         if self.self_contact is not None:
             self.self_contact.refresh_stage()
         acc = [fem.Function(p.u.function_space) for p in integ.parts]
-        if len(acc) == 1:
-            form = self.problem.continuous_residual(integ.u0, integ.v0, acc[0], integ.t)
-            report = solve_linear(form, acc[0], self.problem.bcs, self.case.solver, name="a0")
-        else:  # blocks (the shell): lists of states
-            form = self.problem.continuous_residual(
-                [p.u0 for p in integ.parts], [p.v0 for p in integ.parts], acc, integ.t
-            )
-            report = solve_linear(form, acc, self.problem.bcs, self.case.solver, name="a0")
+
+        def state(functions: list[Any]) -> Any:  # the shell's blocks go as lists
+            return functions if len(functions) > 1 else functions[0]
+
+        u0, v0 = state([p.u0 for p in integ.parts]), state([p.v0 for p in integ.parts])
+        form = self.problem.continuous_residual(u0, v0, state(acc), integ.t)
+        report = solve_linear(form, state(acc), self.problem.bcs, self.case.solver, name="a0")
         if not report.converged:
             raise SimulationError(
                 f"initial acceleration solve failed ({report.reason_name}, ‖R‖ = "
