@@ -37,7 +37,7 @@ Normal law (penalty).
     for κ ≲ 100, which is what keeps a thin P2 plate from inverting its
     bottom layer on impact; results converge as κ grows (see
     ``docs/verification.md``). The static penetration under a pressure
-    ``p`` is the inverse of ``r``: :func:`magfem.mechanics.reference.penalty_penetration`.
+    ``p`` is the inverse of ``r``: :func:`penalty_penetration`.
 
 Impact damping.
     :math:`c_n\,s(\delta)\,\dot\delta` is a contact dashpot that switches on
@@ -131,6 +131,7 @@ __all__ = [
     "create_ground_contact_law",
     "critical_contact_damping",
     "ground_contact_work",
+    "penalty_penetration",
     "penalty_ramp",
 ]
 
@@ -256,6 +257,19 @@ def penalty_ramp(delta: Any, onset: Any) -> tuple[Any, Any]:
     )
     s = ufl.conditional(ufl.le(delta, 0.0), 0.0, ufl.conditional(inside, delta / onset, 1.0))
     return r, s
+
+
+def penalty_penetration(pressure: float, stiffness: float, onset: float) -> float:
+    """Static penetration δ (m) of the C¹ penalty ramp carrying ``pressure`` (Pa).
+
+    Inverse of p = k_n r(δ): sqrt(2 δ0 p/k_n) below p/k_n = δ0/2, p/k_n + δ0/2 above.
+    """
+    q = pressure / stiffness
+    if q <= 0.0:
+        return 0.0
+    if q < onset / 2.0:
+        return math.sqrt(2.0 * onset * q)
+    return q + onset / 2.0
 
 
 class GroundContact:

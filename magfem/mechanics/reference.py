@@ -95,6 +95,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import integrate, optimize
 
+from magfem.mechanics.contact import penalty_penetration
+
 __all__ = [
     "ElasticaSolution",
     "bending_modulus",
@@ -291,19 +293,6 @@ def cantilever_frequency(
 def resting_pressure(density: float, thickness: float, gravity: float = 9.8) -> float:
     """Pressure ρ g h (Pa) of a flat membrane resting on the ground."""
     return density * gravity * thickness
-
-
-def penalty_penetration(pressure: float, stiffness: float, onset: float) -> float:
-    """Static penetration δ (m) of the C¹ penalty ramp carrying ``pressure`` (Pa).
-
-    Inverse of p = k_n r(δ): sqrt(2 δ0 p/k_n) below p/k_n = δ0/2, p/k_n + δ0/2 above.
-    """
-    q = pressure / stiffness
-    if q <= 0.0:
-        return 0.0
-    if q < onset / 2.0:
-        return math.sqrt(2.0 * onset * q)
-    return q + onset / 2.0
 
 
 def sliding_velocity(

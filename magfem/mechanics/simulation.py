@@ -397,7 +397,7 @@ class MembraneSimulation:
         in one iteration, every smaller increment likewise). Translating the
         body down by δ* = r⁻¹(ρ |g| h / k_n), the penetration at which the
         penalty carries the membrane's weight per area
-        (:func:`magfem.mechanics.reference.penalty_penetration`), starts Newton
+        (:func:`magfem.mechanics.contact.penalty_penetration`), starts Newton
         where the tangent has the stiffness of the resting contact. Supports
         stay at zero. Returns δ* (m; 0 when the body does not touch the
         ground, there is no ground contact or gravity does not press down).
@@ -413,7 +413,7 @@ class MembraneSimulation:
         lowest -= self.problem.face_offset  # the shell's mesh is its mid-surface
         if g_v >= 0.0 or lowest > contact.ground_height + 1e-9 * robot.thickness:
             return 0.0
-        from magfem.mechanics.reference import penalty_penetration
+        from magfem.mechanics.contact import penalty_penetration
 
         weight = self.case.material.density * abs(g_v) * robot.thickness  # per area (Pa)
         delta = penalty_penetration(weight, law.stiffness, law.onset)

@@ -1,0 +1,121 @@
+"""Histories of a few short runs, saved and compared: does a change alter the physics?
+
+A refactor must leave every number where it was. This script runs a fixed
+set of short runs that together touch every model and load of magfem (3D
+solid with ground contact and friction, the shell, a 2D strip, self-contact,
+a radial robot, the quasi-static scheme) and either saves their histories or
+compares them with saved ones column by column.
+
+    .venv/bin/python benchmarks/regression_histories.py save DIR
+    .venv/bin/python benchmarks/regression_histories.py compare DIR [--rtol 1e-9]
+    .venv/bin/python benchmarks/regression_histories.py compare DIR --only default_solid
+
+``compare`` prints, per run, the largest difference of each column relative
+to the column's largest magnitude, and exits 1 if any exceeds ``--rtol``.
+Runs are serial; ``mpirun -n 2`` works too (the histories are the same on
+every rank).
+"""
+
+from __future__ import annotations
+
+# isort: off
+import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
+
+# isort: on
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from magfem.case import load_case
+from magfem.mechanics import simulate
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+
+RUNS: dict[str, tuple[str, list[str]]] = {
+    "default_solid": ("one_arm_trapezoid.toml", ["time.end=8ms"]),
+    "default_shell": (
+        "one_arm_trapezoid.toml",
+        ["time.end=8ms", "mesh.model=surface", "mesh.size=1mm"],
+    ),
+    "two_arm_strip": ("two_arm_20hz.toml", ["time.end=15ms", "mesh.size=0.5mm"]),
+    "bow_tie_self_contact": (
+        "bow_tie.toml",
+        ["time.end=20ms", "mesh.size=1mm", "field.sources.0.waveform.frequency=30Hz"],
+    ),
+    "flower_radial": ("flower.toml", ["time.end=8ms", "mesh.size=4mm"]),
+    "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm"]),
+}
+"""name -> (case file, overrides). Outputs other than the history are switched off."""
+
+QUIET = ["output.vtx_every=0", "output.plot=false", "output.animation=false"]
+
+
+def _run(name: str, outdir: Path) -> dict[str, np.ndarray]:
+    case_file, sets = RUNS[name]
+    case = load_case(CASES / case_file, [*sets, *QUIET])
+    t0 = time.perf_counter()
+    result = simulate(case, outdir / name, MPI.COMM_WORLD, progress=False)
+    if MPI.COMM_WORLD.rank == 0:
+        steps = len(result.history["time"]) - 1
+        print(f"{name:28s} {steps:5d} steps  {time.perf_counter() - t0:7.1f} s", flush=True)
+    return result.history
+
+
+def _read(path: Path) -> dict[str, np.ndarray]:
+    with path.open() as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], np.array(rows[1:], dtype=float)
+    return {k: data[:, i] for i, k in enumerate(header)}
+
+
+def _compare(ref: dict[str, np.ndarray], new: dict[str, np.ndarray]) -> tuple[float, str]:
+    """(worst relative difference, column) over the columns of ``ref``."""
+    if len(ref["time"]) != len(new["time"]):
+        return np.inf, f"steps {len(ref['time'])} -> {len(new['time'])}"
+    worst, where = 0.0, ""
+    for key, a in ref.items():
+        b = new.get(key)
+        if b is None:
+            return np.inf, f"column {key} missing"
+        ok = np.isfinite(a) & np.isfinite(b)
+        if not np.array_equal(np.isfinite(a), np.isfinite(b)):
+            return np.inf, f"column {key}: NaN pattern differs"
+        scale = float(np.max(np.abs(a[ok]))) if ok.any() else 0.0
+        diff = float(np.max(np.abs(a[ok] - b[ok]))) if ok.any() else 0.0
+        rel = diff / scale if scale > 0 else diff
+        if rel > worst:
+            worst, where = rel, key
+    return worst, where
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("action", choices=("save", "compare"))
+    p.add_argument("directory", type=Path)
+    p.add_argument("--only", action="append", default=[], choices=sorted(RUNS))
+    p.add_argument("--rtol", type=float, default=1e-9)
+    args = p.parse_args()
+    comm = MPI.COMM_WORLD
+    names = args.only or list(RUNS)
+    failed = False
+    for name in names:
+        if args.action == "save":
+            _run(name, args.directory)
+            continue
+        ref = _read(args.directory / name / "history.csv")
+        new = _run(name, args.directory / "_compare")
+        worst, where = _compare(ref, new)
+        bad = not worst <= args.rtol
+        failed |= bad
+        if comm.rank == 0:
+            print(f"  {'DIFFERS' if bad else 'same':7s} worst {worst:.3g} ({where})", flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
