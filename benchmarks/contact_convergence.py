@@ -13,7 +13,7 @@ Newton solver, contact law) so the three ways of treating the contact in the
 time step can be compared: the contact at the generalized-α stage point
 (what ``problem.py`` did when this was written), at the end of the step
 (x_{n+1}, v_{n+1}), and at the end of the step plus
-:class:`magfem.mechanics.contact.ImpactAbsorber`. Reported: rebound speed
+:class:`magfem.mechanics.contacts.ground.ImpactAbsorber`. Reported: rebound speed
 (mean vertical velocity 1 ms after the drop, m/s, positive = up), mean
 height of the mid-plane above its resting position, Newton iterations per
 step, step cuts, wall time.
@@ -42,10 +42,9 @@ from mpi4py import MPI
 from magfem import material
 from magfem.mechanics import reference as ref
 from magfem.mechanics import verification as vc
-from magfem.mechanics.contact import (
-    GroundContact,
-    GroundContactLaw,
-    ImpactAbsorber,
+from magfem.mechanics.contacts.ground import GroundPlane, ImpactAbsorber
+from magfem.mechanics.contacts.penalty import (
+    PenaltyLaw,
     contact_stiffness,
     critical_contact_damping,
 )
@@ -96,13 +95,13 @@ def drop(
     integ.a0.interpolate(lambda X: np.vstack([0 * X[0], 0 * X[0], -G + 0 * X[0]]))
     u.x.array[:] = integ.u0.x.array
     k_n = contact_stiffness(penalty, mu, h)
-    law = GroundContactLaw(
+    law = PenaltyLaw(
         stiffness=k_n,
         onset=0.05 * h,
         damping=critical_contact_damping(k_n, rho, h),
         friction=MU_F,
     )
-    contact = GroundContact(law, m, vertical=2)
+    contact = GroundPlane(law, m, vertical=2)
     q = 4
     dx = ufl.Measure("dx", m, metadata={"quadrature_degree": q})
     bottom = mesh.locate_entities_boundary(m, 2, lambda X: np.isclose(X[2], 0.0))

@@ -11,7 +11,7 @@ loaded machine) next to wall time:
   and off;
 * ``run``: a run of the case (``--set`` overrides as in ``magfem run``):
   steps, mean Newton iterations, cuts, maximum and final tip angle (deg),
-  and the wall-time split of :meth:`MembraneSimulation.timings`.
+  and the wall-time split of :meth:`Simulation.timings`.
 
     .venv/bin/python benchmarks/dynamics_speed.py assembly
     .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01 --save /tmp/a.npy
@@ -50,11 +50,11 @@ def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
     from dolfinx.fem import petsc as fem_petsc
 
     from magfem.case import load_case
-    from magfem.mechanics import MembraneSimulation
+    from magfem.pipeline import build_simulation
 
     comm = MPI.COMM_WORLD
-    sim = MembraneSimulation(load_case(CASE, sets), comm)
-    problem, snes, bcs = sim.solver.problem, sim.solver.snes, sim.problem.bcs
+    sim = build_simulation(load_case(CASE, sets), comm)
+    problem, snes, bcs = sim.solver.problem, sim.solver.snes, sim.model.bcs
     rng = np.random.default_rng(comm.rank)
     sim.u.x.array[:] = 1e-6 * rng.random(sim.u.x.array.size)
     for bc in bcs:
@@ -152,12 +152,12 @@ def assembly(n: int) -> None:
 
 def run(sets: list[str], save: str | None = None) -> None:
     from magfem.case import load_case
-    from magfem.mechanics import MembraneSimulation
+    from magfem.pipeline import build_simulation
 
     comm = MPI.COMM_WORLD
     c0, t0 = time.process_time(), time.perf_counter()
-    sim = MembraneSimulation(load_case(CASE, sets), comm)
-    result = sim.run(None, progress=False)
+    sim = build_simulation(load_case(CASE, sets), comm)
+    result = sim.run(progress=False)
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
     s, st = result.summary, sim.solver.timings
     if comm.rank == 0:

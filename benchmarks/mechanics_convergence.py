@@ -10,7 +10,7 @@ Jacobian assembly, linear solves). A second table does the same for the
 2D strip model against the 3D solid on a uniform-width arm
 (``cases/one_arm_shapes_rectangle.toml`` with the trapezoid's thickness),
 whose converged reference is the finest 3D run. ``--model surface`` runs the
-grid with the shell model (:mod:`magfem.mechanics.shell`) instead of the
+grid with the shell model (:mod:`magfem.mechanics.models.shell`) instead of the
 solid; with ``--reference`` it is compared with a saved solid run.
 
 Run on 2 cores (timings vary ~30 % between identical runs)::
@@ -44,9 +44,9 @@ from mpi4py import MPI
 
 import magfem  # noqa: F401  (MPI before dolfinx)
 from magfem.case import load_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics.simulation import SimulationError
 from magfem.parallel import rank0_print
+from magfem.pipeline import build_simulation
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -70,9 +70,9 @@ def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, 
     """Run a case with overrides; history arrays, timings and step statistics (None: failed)."""
     case = load_case(case_path, overrides)
     t0 = time.perf_counter()
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     try:
-        result = sim.run(None, progress=False)
+        result = sim.run(progress=False)
     except SimulationError as err:
         rank0_print(f"  FAILED ({time.perf_counter() - t0:.0f} s): {err}")
         return None
@@ -80,7 +80,7 @@ def run_one(case_path: Path, overrides: list[str], comm: MPI.Comm) -> dict[str, 
     angle_key = next(k for k in result.history if k.startswith("angle_"))
     dofs = sum(  # every unknown: the shell's angles too
         f.function_space.dofmap.index_map.size_global * f.function_space.dofmap.index_map_bs
-        for f in sim.problem.unknowns
+        for f in sim.model.unknowns
     )
     timings = {k: comm.allreduce(v, op=MPI.MAX) for k, v in result.timings.items()}
     return {

@@ -32,7 +32,7 @@ import numpy as np
 from mpi4py import MPI
 
 from magfem.case import load_case
-from magfem.mechanics import simulate
+from magfem.pipeline import simulate
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -47,7 +47,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
         "bow_tie.toml",
         ["time.end=20ms", "mesh.size=1mm", "field.sources.0.waveform.frequency=30Hz"],
     ),
-    "flower_radial": ("flower.toml", ["time.end=8ms", "mesh.size=4mm"]),
+    "flower_radial": ("flower.toml", ["time.end=6ms", "mesh.size=2mm"]),
     "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm"]),
 }
 """name -> (case file, overrides). Outputs other than the history are switched off."""

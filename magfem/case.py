@@ -15,6 +15,8 @@ table           dataclass                               owner module
 ``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
 ``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
 ``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
+``[[loads]]``   a spec class per ``kind``               ``magfem.mechanics.loads``
+``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
 =============== ======================================= =====================
 
 Quantities are SI numbers or strings with units (``"80 um"``), converted
@@ -25,7 +27,7 @@ be overridden from the command line with ``--set table.key=value``.
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -33,9 +35,14 @@ from dataclasses import field as _field
 from pathlib import Path
 from typing import Any
 
-from magfem.config import MISSING, CaseError, check_keys, from_table, to_table
+import tomli_w
+
+from magfem import material
+from magfem.config import MISSING, CaseError, build_fields, to_table
 from magfem.field.spec import FieldSpec
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
+from magfem.mechanics.contacts import ContactKindSpec
+from magfem.mechanics.loads import LoadSpec
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
@@ -62,6 +69,8 @@ class Case:
     contact: ContactSpec = _field(default_factory=ContactSpec)
     environment: EnvironmentSpec = _field(default_factory=EnvironmentSpec)
     output: OutputSpec = _field(default_factory=OutputSpec)
+    loads: tuple[LoadSpec, ...] = ()
+    contacts: tuple[ContactKindSpec, ...] = ()
     description: str = ""
 
     def resolution(self) -> str | None:
@@ -73,8 +82,6 @@ class Case:
         elements give ~1° (docs/verification.md §4a, §4c). None without a
         magnetisation or a nominal field.
         """
-        from magfem import material
-
         flux = sum(getattr(s, "flux_density", None) or 0.0 for s in self.field.sources)
         mat = self.material
         if flux <= 0.0 or mat.remanence <= 0.0:
@@ -102,42 +109,13 @@ def parse_case(data: Mapping[str, Any]) -> Case:
             MISSING,
             "the case is empty; it needs at least name, [robot], [mesh], [material]",
         )
-    check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
-    kwargs: dict[str, Any] = {}
-    for f in dataclasses.fields(Case):
-        if f.name not in data:
-            if f.default is MISSING and f.default_factory is MISSING:
-                raise CaseError(
-                    f.name, MISSING, "missing required " + ("key" if f.name == "name" else "table")
-                )
-            continue
-        raw = data[f.name]
-        if f.name in ("name", "description"):
-            if not isinstance(raw, str) or (f.name == "name" and not raw.strip()):
-                raise CaseError(f.name, raw, "must be a non-empty string")
-            kwargs[f.name] = raw
-            continue
-        if not isinstance(raw, Mapping):
-            raise CaseError(f.name, raw, "must be a table")
-        spec_type = _spec_types()[f.name]
-        kwargs[f.name] = from_table(spec_type, raw, f.name)
-    case = Case(**kwargs)
+    for key in ("name", "description"):
+        raw = data.get(key, "")
+        if key in data and (not isinstance(raw, str) or (key == "name" and not raw.strip())):
+            raise CaseError(key, raw, "must be a non-empty string")
+    case = build_fields(Case, data, "")
     _check_consistency(case)
     return case
-
-
-def _spec_types() -> dict[str, type]:
-    return {
-        "robot": RobotSpec,
-        "mesh": MeshSpec,
-        "material": MaterialSpec,
-        "field": FieldSpec,
-        "time": TimeSpec,
-        "solver": SolverSpec,
-        "contact": ContactSpec,
-        "environment": EnvironmentSpec,
-        "output": OutputSpec,
-    }
 
 
 def _parse_override_value(text: str) -> Any:
@@ -155,8 +133,6 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
     ``[1, 0, 0]``, ``"2 mT"``) and as a plain string otherwise (``2mT``).
     Arrays of tables are addressed by index: ``field.sources.0.frequency=50Hz``.
     """
-    import copy
-
     out = copy.deepcopy(data)
     for item in overrides:
         if "=" not in item:
@@ -212,8 +188,6 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
 
 def write_resolved_case(case: Case, path: str | Path) -> Path:
     """Write the case with all defaults filled in, SI numbers, as TOML."""
-    import tomli_w
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     table = to_table(case)

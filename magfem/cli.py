@@ -20,14 +20,18 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from mpi4py import MPI
+
+from magfem import __version__
+from magfem.case import Case, load_case, write_resolved_case
 from magfem.config import CaseError
-
-if TYPE_CHECKING:
-    from mpi4py import MPI
-
-    from magfem.case import Case
+from magfem.field.run import run_field
+from magfem.geometry.robot_mesh import create_robot_mesh
+from magfem.parallel import rank0_print
+from magfem.pipeline import simulate
+from magfem.report import build_report
+from magfem.sweep import parse_param, run_sweep
 
 __all__ = ["main"]
 
@@ -35,17 +39,7 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 1
 
 
-def _comm() -> MPI.Comm:
-    from mpi4py import MPI
-
-    import magfem  # noqa: F401  (MPI before dolfinx)
-
-    return MPI.COMM_WORLD
-
-
 def _say(comm: MPI.Comm, *args: object) -> None:
-    from magfem.parallel import rank0_print
-
     rank0_print(*args, comm=comm)
 
 
@@ -75,8 +69,6 @@ def _cmd_check(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 
 def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
-    from magfem.geometry.robot_mesh import create_robot_mesh
-
     out = Path(args.out) if args.out else Path("meshes")
     msh = out / f"{case.name}.msh"
     t0 = time.perf_counter()
@@ -92,8 +84,6 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 
 def _cmd_field(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
-    from magfem.field.run import run_field
-
     outdir = _outdir(args, case)
     _write_resolved(case, outdir, comm)
     written = run_field(case, outdir, comm)
@@ -103,8 +93,6 @@ def _cmd_field(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 
 def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
-    from magfem.mechanics import simulate
-
     outdir = _outdir(args, case)
     _say(comm, _summary(case))
     resolved = _write_resolved(case, outdir, comm)
@@ -118,8 +106,6 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 
 def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
-    from magfem.case import write_resolved_case
-
     path = outdir / "case.resolved.toml"
     if comm.rank == 0:
         write_resolved_case(case, path)
@@ -128,8 +114,6 @@ def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
 
 
 def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
-    from magfem.sweep import parse_param, run_sweep
-
     for text in args.params:  # syntax errors first, on every rank
         parse_param(text)
     if comm.size > 1:  # the driver is serial; each point may use --np ranks itself
@@ -158,8 +142,6 @@ def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
 
 
 def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
-    from magfem.report import build_report
-
     if comm.size > 1:
         raise CaseError("report", f"{comm.size} ranks", "run the report driver without mpirun")
     path = build_report(
@@ -186,8 +168,6 @@ def _add_overrides(parser: argparse.ArgumentParser, text: str) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from magfem import __version__
-
     p = argparse.ArgumentParser(
         prog="magfem",
         description="Finite-element simulation of untethered hard-magnetic soft robots.",
@@ -246,12 +226,10 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``magfem`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
-    comm = _comm()
+    comm = MPI.COMM_WORLD
     try:
         if args.command in _DRIVERS:
             return _DRIVERS[args.command](args, comm)
-        from magfem.case import load_case
-
         case = load_case(args.case, args.overrides)
         return _COMMANDS[args.command](args, case, comm)
     except CaseError as err:

@@ -1,4 +1,4 @@
-"""Ground contact law (magfem.mechanics.contact): resultant forces against closed form.
+"""Ground contact law (magfem.mechanics.contacts): resultant forces against closed form.
 
 A box whose bottom face is pushed a uniform depth δ into the ground must
 carry exactly k_n r(δ) × area (quadrature of a constant), friction
@@ -18,13 +18,12 @@ import ufl
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
-from magfem.mechanics.contact import (
-    GroundContact,
-    GroundContactLaw,
+from magfem.mechanics.contacts.ground import GroundPlane, ImpactAbsorber
+from magfem.mechanics.contacts.penalty import (
+    PenaltyLaw,
     contact_stiffness,
-    create_ground_contact_law,
+    create_penalty_law,
     critical_contact_damping,
-    ground_contact_work,
 )
 from magfem.mechanics.reference import penalty_penetration
 
@@ -44,7 +43,7 @@ def _forces(m, V, law, shift, velocity):
     u, v = fem.Function(V), fem.Function(V)
     u.interpolate(lambda X: np.outer(shift, np.ones(X.shape[1])))
     v.interpolate(lambda X: np.outer(velocity, np.ones(X.shape[1])))
-    contact = GroundContact(law, m, vertical=2, ground_height=0.0)
+    contact = GroundPlane(law, m, vertical=2, ground_height=0.0)
     x = ufl.SpatialCoordinate(m) + u
     # only the bottom face: side faces would also dip in by δ
     bottom = mesh.locate_entities_boundary(m, 2, lambda X: np.isclose(X[2], 0.0))
@@ -57,7 +56,7 @@ def _forces(m, V, law, shift, velocity):
 @pytest.mark.parametrize("delta", [2e-6, 3e-8])  # linear branch, quadratic onset
 def test_normal_force_and_friction_match_closed_form(box, delta):
     m, V = box
-    law = GroundContactLaw(
+    law = PenaltyLaw(
         stiffness=1e10, onset=1e-7, damping=0.0, friction=0.5, regularization_velocity=1e-3
     )
     speed = 0.01
@@ -74,7 +73,7 @@ def test_normal_force_and_friction_match_closed_form(box, delta):
 def test_penetration_inverts_the_penalty_ramp(box):
     """reference.penalty_penetration is the inverse of the assembled law in both branches."""
     m, V = box
-    law = GroundContactLaw(stiffness=1e10, onset=1e-7)
+    law = PenaltyLaw(stiffness=1e10, onset=1e-7)
     for pressure in (1e1, 1e4):  # quadratic onset, linear branch
         delta = penalty_penetration(pressure, law.stiffness, law.onset)
         force = _forces(m, V, law, [0.0, 0.0, -delta], [0.0, 0.0, 0.0])
@@ -85,7 +84,7 @@ def test_penetration_inverts_the_penalty_ramp(box):
 def test_no_force_at_positive_gap(box, gap):
     """Exactly zero (not small): the ramp must not reach off the ground."""
     m, V = box
-    law = GroundContactLaw(stiffness=1e12, onset=1e-9, damping=1e3)
+    law = PenaltyLaw(stiffness=1e12, onset=1e-9, damping=1e3)
     force = _forces(m, V, law, [0.0, 0.0, gap], [0.1, 0.0, -0.5])
     assert np.all(force == 0.0)
 
@@ -93,7 +92,7 @@ def test_no_force_at_positive_gap(box, gap):
 def test_damping_adds_pressure_only_while_pressing(box):
     m, V = box
     k, c, delta = 1e10, 1e4, 2e-6
-    law = GroundContactLaw(stiffness=k, onset=1e-7, damping=c)
+    law = PenaltyLaw(stiffness=k, onset=1e-7, damping=c)
     spring = k * (delta - 0.5e-7)
     falling = _forces(m, V, law, [0.0, 0.0, -delta], [0.0, 0.0, -1.0])
     assert falling[2] == pytest.approx((spring + c * 1.0) * AREA, rel=1e-12)
@@ -105,7 +104,7 @@ def test_damping_adds_pressure_only_while_pressing(box):
 def test_linearisation_matches_finite_difference(box):
     """ufl.derivative of the contact work is its Jacobian (FD check, both branches active)."""
     m, V = box
-    law = GroundContactLaw(stiffness=1e10, onset=1e-6, damping=1e3, friction=0.5)
+    law = PenaltyLaw(stiffness=1e10, onset=1e-6, damping=1e3, friction=0.5)
     u = fem.Function(V)
     # tilted: quadrature points in the onset, the linear branch and off the ground
     u.interpolate(lambda X: np.vstack([0 * X[0], 0 * X[0], 2e-6 * (X[0] / LX) - 1.5e-6]))
@@ -119,7 +118,7 @@ def test_linearisation_matches_finite_difference(box):
     u_n = fem.Function(V)
     u_n.x.array[:] = u.x.array
     v_u = v + (u - u_n) / dt
-    work = ground_contact_work(x, v_u, w, law, ds, vertical=2)
+    work = GroundPlane(law, m, vertical=2).work(x, v_u, w, ds)
     R = fem.form(work)
     J = fem.form(ufl.derivative(work, u))
     from dolfinx.fem import petsc
@@ -153,7 +152,7 @@ def test_law_from_spec_scales_with_membrane():
         damping = 1.0
         regularization_velocity = 1e-3
 
-    law = create_ground_contact_law(Spec(), shear_modulus=250e3, density=2130.0, thickness=1e-4)
+    law = create_penalty_law(Spec(), shear_modulus=250e3, density=2130.0, thickness=1e-4)
     assert law.stiffness == pytest.approx(10 * 250e3 / 1e-4)
     assert law.stiffness == contact_stiffness(10.0, 250e3, 1e-4)
     assert law.onset == pytest.approx(1e-7)
@@ -161,13 +160,12 @@ def test_law_from_spec_scales_with_membrane():
     assert law.damping == pytest.approx(2 * math.sqrt(2.5e10 * 2130 * 1e-4))
     assert law.damping == critical_contact_damping(law.stiffness, 2130.0, 1e-4)
     with pytest.raises(ValueError):
-        GroundContactLaw(stiffness=1.0, onset=0.0)
+        PenaltyLaw(stiffness=1.0, onset=0.0)
 
 
 def test_impact_absorber_stops_whole_columns_below_ground(comm):
     """Columns whose contact node is below ground lose upward v_z and a_z, all through the
     thickness (two layers here); columns above ground, downward motion and v_x are kept."""
-    from magfem.mechanics.contact import ImpactAbsorber
 
     m = mesh.create_box(comm, [[0.0, 0.0, 0.0], [LX, LY, H]], [4, 2, 2], mesh.CellType.hexahedron)
     V = fem.functionspace(m, ("Lagrange", 2, (3,)))

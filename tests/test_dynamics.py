@@ -17,8 +17,8 @@ import pytest
 from mpi4py import MPI
 
 from magfem.case import parse_case
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics.simulation import SimulationError
+from magfem.pipeline import build_simulation, simulate
 
 BASE: dict[str, Any] = {
     "name": "strip",
@@ -65,7 +65,7 @@ def _free_vibration(comm, rho_inf: float, steps: int, dt: float) -> np.ndarray:
             "scheme": "generalized_alpha",
         },
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     # initial velocity of a bending motion (Kirchhoff: v_x = −(z − h/2) ∂v_z/∂x), zero on the
     # clamp x <= 1 mm; a velocity uniform through the thickness would excite the stiff
     # shear/thickness modes instead (generalized-α overshoots on those in the first steps)
@@ -78,7 +78,7 @@ def _free_vibration(comm, rho_inf: float, steps: int, dt: float) -> np.ndarray:
             ]
         )
     )
-    result = sim.run(None, progress=False)
+    result = sim.run(progress=False)
     return result.history["energy_total"]
 
 
@@ -101,10 +101,10 @@ def test_mpi_run_reproduces_serial_angle_history(comm):
     """Under mpirun the world run is compared with a COMM_SELF run on rank 0."""
     # adaptive stepping on: the step sequence (cuts at the field switch-on) must match too
     case = _case(time={"end": "5 ms", "step": "0.25 ms"})
-    world = MembraneSimulation(case, comm).run(None, progress=False)
+    world = build_simulation(case, comm).run(progress=False)
     ok, diff = True, 0.0
     if comm.rank == 0:
-        serial = MembraneSimulation(case, MPI.COMM_SELF).run(None, progress=False)
+        serial = build_simulation(case, MPI.COMM_SELF).run(progress=False)
         a, b = world.history, serial.history
         if a["time"].shape != b["time"].shape or np.any(a["time"] != b["time"]):
             ok, diff = False, float("inf")  # different step sequences
@@ -143,7 +143,7 @@ def test_extremes_run_and_stay_physical(comm, thickness, flux, frequency):
         field={"sources": [source]},
         time={"end": end, "step": min(0.25e-3, 0.05 / f)},
     )
-    result = MembraneSimulation(case, comm).run(None, progress=False)
+    result = build_simulation(case, comm).run(progress=False)
     angle = result.history["angle_arm"]
     assert np.all(np.isfinite(angle))
     assert result.history["time"][-1] == pytest.approx(end, rel=1e-9)
@@ -172,7 +172,7 @@ def test_rotating_field_curls_arm_past_270_degrees(comm):
         material={"direction": [1, 0, 0]},
         time={"end": 0.45, "step": 2e-3},
     )
-    result = MembraneSimulation(case, comm).run(None, progress=False)
+    result = build_simulation(case, comm).run(progress=False)
     t, angle = result.history["time"], result.history["angle_arm"]
     assert angle[-1] > math.radians(270)
     lag = np.abs(angle - 2 * np.pi * 2.0 * t)
@@ -211,7 +211,7 @@ def test_static_strip_matches_elastica_and_p1_locks(comm, degree, size, bound):
             solver={"degree": deg},
             time={"scheme": "quasi_static", "end": 1.0, "step": 0.25},
         )
-        history = MembraneSimulation(case, comm).run(None, progress=False).history
+        history = build_simulation(case, comm).run(progress=False).history
         return math.degrees(history["angle_arm"][-1])
 
     assert abs(tip_angle(degree) - exact) < bound
@@ -231,7 +231,7 @@ def test_strain_probe_excludes_the_support_zone(comm):
 
     from magfem.mechanics.observers import StrainProbe
 
-    sim = MembraneSimulation(_case(time={"end": "0.25 ms"}), comm)
+    sim = build_simulation(_case(time={"end": "0.25 ms"}), comm)
     eps, a, h = 0.01, -2e-5, 0.5e-3
     u = fem.Function(sim.u.function_space)
     u.interpolate(
@@ -251,7 +251,7 @@ def test_contact_surfaces_name_facet_groups(comm):
     for bad in (["nowhere"], ["arm"]):
         case = _case(contact={"ground": True, "surfaces": bad})
         with pytest.raises(CaseError, match=r"contact\.surfaces"):
-            MembraneSimulation(case, comm)
+            build_simulation(case, comm)
 
 
 @pytest.mark.parametrize("model", ["strip", "solid"])
@@ -276,12 +276,12 @@ def test_step_jacobian_matches_central_differences(comm, model):
         contact={"ground": True, "friction": 0.5},
         environment={"gravity": [0, 0, "-9.8 m/s^2"]},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     sim.initialise()
     integ = sim.integrator
     dt = 2.5e-4
     integ.begin(dt)
-    sim.field.update(integ.stage_time(0.0, dt), side="right", u=integ.u0)
+    sim.update_loads(integ.stage_time(0.0, dt), "right", integ.u0)
     u = sim.u
     rng = np.random.default_rng(comm.rank)
     # push the body down by up to half a thickness (into the ground) with random wiggles
@@ -289,7 +289,7 @@ def test_step_jacobian_matches_central_differences(comm, model):
     values = u.x.array.reshape(-1, gdim)
     values[:] = 2e-6 * rng.standard_normal(values.shape)
     values[:, gdim - 1] -= 40e-6 * rng.random(values.shape[0])
-    for bc in sim.problem.bcs:
+    for bc in sim.model.bcs:
         bc.set(u.x.array, alpha=0.0)
     u.x.scatter_forward()
     problem = sim.solver.problem
@@ -300,7 +300,7 @@ def test_step_jacobian_matches_central_differences(comm, model):
     sim.solver.snes.computeJacobian(x0, A, problem.P_mat)
     d = x0.duplicate()
     d.setArray(rng.standard_normal(d.getLocalSize()))
-    for bc in sim.problem.bcs:  # Newton never moves constrained dofs
+    for bc in sim.model.bcs:  # Newton never moves constrained dofs
         bc.set(d.array_w, alpha=0.0)
     Jd = d.duplicate()
     A.mult(d, Jd)
@@ -347,13 +347,13 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, model,
         environment={"gravity": [0, 0, "-9.8 m/s^2"]},
         time={"scheme": "quasi_static", "end": "1 s", "step": "1 s"},
     )
-    sim = MembraneSimulation(case, comm)
-    history = sim.run(None, progress=False).history
+    sim = build_simulation(case, comm)
+    history = sim.run(progress=False).history
     h, mat = case.robot.thickness, case.material
     width = case.robot.params.width
     free = case.robot.length - case.robot.clamp_length
     q = mat.density * 9.8 * h  # weight per area (Pa)
-    law = sim.problem.contact_law
+    law = sim.problem.contacts[0].law
     delta = penalty_penetration(q, law.stiffness, law.onset)
     k = law.stiffness * min(delta / law.onset, 1.0)  # slope of the C1 ramp there (Pa/m)
     K, mu = mat.bulk, mat.shear_modulus
@@ -378,13 +378,13 @@ def test_force_tolerance_saves_newton_iterations_not_accuracy(comm):
     runs = {}
     for tol in (0.0, 0.1):
         case = _case(solver={"force_tolerance": tol}, time={"adaptive": False, "step": "0.1 ms"})
-        sim = MembraneSimulation(case, comm)
-        runs[tol] = (sim.run(None, progress=False), sim)
+        sim = build_simulation(case, comm)
+        runs[tol] = (sim.run(progress=False), sim)
     (ref, _), (loose, sim) = runs[0.0], runs[0.1]
     atol = sim.solver.snes.getTolerances()[1]
-    assert atol == pytest.approx(0.1 * sim._weight_scale(), rel=1e-12)
+    assert atol == pytest.approx(0.1 * sim.weight_scale(), rel=1e-12)
     # F_ref leaves out the clamped rows: the strip's conditions are all on the displacement
-    assert sim.problem.displacement_bcs == sim.problem.bcs and sim.problem.bcs
+    assert sim.model.displacement_bcs == sim.model.bcs and sim.model.bcs
     assert atol > 0.1 * 1.2e-3  # F_ref of this 0.5 mm strip: 1.23e-3 N/m (measured)
     its_ref, its = (int(np.sum(r.history["newton_iterations"])) for r in (ref, loose))
     assert its <= 0.95 * its_ref, (its, its_ref)  # measured 160 against 174
@@ -408,7 +408,7 @@ def test_stalled_run_stops_with_its_reason_and_keeps_its_history(comm, shared_tm
     )
     out = shared_tmp / reason
     with pytest.raises(SimulationError, match=reason.replace(".", r"\.")) as err:
-        MembraneSimulation(case, comm).run(out, progress=False)
+        simulate(case, out, comm, progress=False)
     assert "t = 0 s: Newton failed" in str(err.value)
     rows = (out / "history.csv").read_text().splitlines()
     assert rows[0].startswith("time,") and len(rows) >= 2  # header and the t = 0 state
@@ -424,7 +424,7 @@ def test_run_summary_equals_the_summary_of_its_csv(comm, shared_tmp):
     source = BASE["field"]["sources"][0] | {"waveform": wave}
     case = _case(field={"sources": [source]}, output={"csv": True, "vtx_every": 0, "plot": False})
     out = shared_tmp / "summary"
-    result = MembraneSimulation(case, comm).run(out, progress=False)
+    result = simulate(case, out, comm, progress=False)
     if comm.rank == 0:  # as `magfem run` does: the sweep reads t0 and f from it
         write_resolved_case(case, out / "case.resolved.toml")
     comm.barrier()

@@ -39,6 +39,7 @@ import pytest
 
 from magfem.case import load_case
 from magfem.cli import main
+from magfem.pipeline import build_simulation
 
 QUIET = [
     "--set",
@@ -168,7 +169,6 @@ def test_every_case_file_is_a_scene(repo):
 
 def _gravity_sag(repo, comm, thickness_mm: float, shear_kpa: float, size_mm: float) -> float:
     """FE tip deflection / Euler-Bernoulli w = q L^4/(8 E' I) of a strip under gravity alone."""
-    from magfem.mechanics.simulation import MembraneSimulation
 
     sets = [
         f"robot.thickness={thickness_mm}mm",
@@ -185,15 +185,15 @@ def _gravity_sag(repo, comm, thickness_mm: float, shear_kpa: float, size_mm: flo
     ]
     case = load_case(repo / "cases" / "active_length.toml", sets)
     assert case.time.scheme == "quasi_static"
-    sim = MembraneSimulation(case, comm)
-    history = sim.run(None, progress=False).history
+    sim = build_simulation(case, comm)
+    history = sim.run(progress=False).history
     mat = case.material
     K, mu = mat.bulk, mat.shear_modulus
     E = 9 * K * mu / (3 * K + mu)
     nu = (3 * K - 2 * mu) / (2 * (3 * K + mu))
     E_plane = E / (1 - nu**2)  # plane-strain modulus (wide strip)
     t = case.robot.thickness
-    arm = sim.robot.arms[0]
+    arm = sim.model.robot.arms[0]
     free = case.robot.length - case.robot.clamp_length  # span beyond the bonded patch
     q = mat.density * 9.8 * t  # weight per unit area of the strip's side view (N/m^2)
     w_eb = q * free**4 / (8 * E_plane * t**3 / 12)

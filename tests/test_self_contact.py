@@ -2,7 +2,7 @@
 
 Two blocks, L × H = 1 × 0.2 mm side views (plane-strain strips, one mesh,
 cell groups ``lower`` and ``upper``), μ = 115 kPa, ρ = 2130 kg/m³, touch
-through the two-pass penalty of :mod:`magfem.mechanics.self_contact`
+through the two-pass penalty of :mod:`magfem.mechanics.contacts.self_contact`
 (k_c = κ_s μ / H, the gap follows the master's current displacement inside
 Newton):
 
@@ -37,8 +37,9 @@ from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.gmshio import build_mesh
 from magfem.geometry.robot_mesh import RobotMesh
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
+from magfem.mechanics.simulation import Simulation
+from magfem.pipeline import build_simulation
 
 L, H, SIZE, MU, RHO, WIDTH = 1e-3, 2e-4, 1e-4, 115e3, 2130.0, 1e-3
 
@@ -115,12 +116,12 @@ def test_bouncing_blocks_conserve_energy_and_touch_on_time(comm):
         {"gravity": [0, 0, 0], "clamped": []},
         {"end": 2.5e-4, "step": dt, "rho_inf": 1.0, "scheme": "generalized_alpha"},
     )
-    sim = MembraneSimulation(case, comm, robot_mesh=_blocks(comm, gap))
+    sim = build_simulation(case, comm, robot_mesh=_blocks(comm, gap))
     middle = H + gap / 2
     sim.integrator.v0.interpolate(
         lambda X: np.vstack([np.zeros(X.shape[1]), np.where(X[1] < middle, v, -v)])
     )
-    result = sim.run(None, progress=False)
+    result = sim.run(progress=False)
     h = result.history
     e0 = 2 * 0.5 * RHO * L * H * WIDTH * v**2  # J, both blocks
     assert h["energy_total"][0] == pytest.approx(e0, rel=1e-9)
@@ -147,7 +148,7 @@ def test_bouncing_blocks_conserve_energy_and_touch_on_time(comm):
     assert h["self_contact_penetration"].max() < 0.05 * H
 
 
-def _pressed_in(comm) -> tuple[MembraneSimulation, np.ndarray]:
+def _pressed_in(comm) -> tuple[Simulation, np.ndarray]:
     """The blocks touching (gap 0), lower clamped, the upper one's displacement set.
 
     Upper block: 2 onsets into the lower one (linear branch of the ramp),
@@ -160,7 +161,7 @@ def _pressed_in(comm) -> tuple[MembraneSimulation, np.ndarray]:
         {"gravity": [0, 0, 0], "clamped": ["clamp"]},
         {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
     )
-    sim = MembraneSimulation(case, comm, robot_mesh=_blocks(comm, 0.0))
+    sim = build_simulation(case, comm, robot_mesh=_blocks(comm, 0.0))
     V = sim.u.function_space
     X = V.tabulate_dof_coordinates()[:, :2]
     upper = X[:, 1] > H * (1 + 1e-9)
@@ -171,18 +172,18 @@ def _pressed_in(comm) -> tuple[MembraneSimulation, np.ndarray]:
     sim.u.x.array[:] = disp.ravel()
     sim.u.x.scatter_forward()
     sim.integrator.u0.x.array[:] = 0.5 * sim.u.x.array
-    for bc in sim.problem.bcs:
+    for bc in sim.model.bcs:
         bc.set(sim.u.x.array, alpha=0.0)
         bc.set(sim.integrator.u0.x.array, alpha=0.0)
-    bc_dofs = np.concatenate([bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in sim.problem.bcs])
+    bc_dofs = np.concatenate([bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in sim.model.bcs])
     return sim, bc_dofs
 
 
 def test_coupled_linearisation_matches_finite_differences(comm):
     sim, bc_dofs = _pressed_in(comm)
-    contact = sim.self_contact
+    contact = sim.problem.contacts[0]
     assert contact is not None
-    contact.refresh_stage()  # pairing and normals frozen from here on, as within a step
+    contact.before_solve()  # pairing and normals frozen from here on, as within a step
     assert contact.engaged
     x = sim.u.x.petsc_vec.copy()
 
@@ -214,7 +215,7 @@ def test_coupled_linearisation_matches_finite_differences(comm):
     fd.axpy(-1.0, Jd)
     assert fd.norm() < 1e-8 * Jd.norm(), fd.norm() / Jd.norm()
     # the upper block's rows depend on the lower block's displacement (master columns)
-    robot = sim.robot
+    robot = sim.model.robot
     V = sim.u.function_space
     lower_blocks = fem.locate_dofs_topological(V, 2, robot.cell_tags.find(robot.groups["lower"][1]))
     lower = np.zeros(d.getLocalSize() // 2, dtype=bool)
@@ -242,13 +243,13 @@ def test_pressed_blocks_rest_at_the_penalty_penetration(comm):
         {"end": 2e-2, "step": dt, "rho_inf": 0.5, "scheme": "generalized_alpha"},
     )
     robot = _blocks(comm, 0.0)
-    sim = MembraneSimulation(case, comm, robot_mesh=robot)
+    sim = build_simulation(case, comm, robot_mesh=robot)
     k_c = 10.0 * MU / H
     beta = sim.integrator.params.beta
     # k_c β Δt²/(ρH) = 1500: the former staggered coupling (master frozen per step) needed
     # this ≲ 1 and failed here at t = 5.5 ms (Newton NaN; at ρ∞ = 0 it rocked at 3x the weight)
     assert k_c * beta * dt**2 / (RHO * H) > 1e3
-    h = sim.run(None, progress=False).history
+    h = sim.run(progress=False).history
     weight = RHO * G * H * L * WIDTH  # N
     # at rest the contact carries the weight (measured to 8e-6 over the last quarter)
     tail = h["self_contact_force"][3 * len(h["time"]) // 4 :]
@@ -291,4 +292,4 @@ def test_self_contact_needs_two_cell_groups(comm):
         {"end": 1e-4, "step": 1e-4},
     )
     with pytest.raises(CaseError, match="not a cell group"):
-        MembraneSimulation(case, comm, robot_mesh=_blocks(comm, 0.0))
+        build_simulation(case, comm, robot_mesh=_blocks(comm, 0.0))

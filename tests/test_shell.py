@@ -1,4 +1,4 @@
-"""The shell model (``[mesh] model = "surface"``, :mod:`magfem.mechanics.shell`).
+"""The shell model (``[mesh] model = "surface"``, :mod:`magfem.mechanics.models.shell`).
 
 Checks against independent references: the hard-magnetic elastica (static,
 converging with the mesh), energy conservation of a free vibration (ρ∞ = 1),
@@ -21,9 +21,9 @@ from test_dynamics import BASE as STRIP_BASE  # the same arm and drive as the st
 from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
-from magfem.mechanics import MembraneSimulation
 from magfem.mechanics import reference as ref
 from magfem.mechanics import verification as vc
+from magfem.pipeline import build_simulation
 
 BASE: dict[str, Any] = copy.deepcopy(STRIP_BASE) | {
     "name": "shell",
@@ -76,7 +76,7 @@ def test_shell_conserves_energy_with_rho_one(comm):
         environment={"gravity": [0, 0, 0]},
         time={"end": steps * dt, "step": dt, "adaptive": False, "rho_inf": 1.0},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     c, xr, L = 0.005, 1e-3, 6.5e-3
     disp, angles = sim.integrator.parts
     disp.v0.interpolate(
@@ -85,7 +85,7 @@ def test_shell_conserves_energy_with_rho_one(comm):
     angles.v0.interpolate(
         lambda X: np.vstack([0 * X[0], -2 * c * np.maximum(X[0] - xr, 0.0) / L**2])
     )
-    energy = sim.run(None, progress=False).history["energy_total"]
+    energy = sim.run(progress=False).history["energy_total"]
     drift = np.max(np.abs(energy - energy[0])) / energy[0]
     assert drift < 1e-3, drift
 
@@ -112,13 +112,13 @@ def test_shell_step_jacobian_matches_central_differences(comm):
         contact={"ground": True, "friction": 0.5},
         environment={"gravity": [0, 0, "-9.8 m/s^2"]},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     sim.initialise()
     integ = sim.integrator
     dt = 2.5e-4
     integ.begin(dt)
-    sim.field.update(integ.stage_time(0.0, dt), side="right", u=integ.u0)
-    unknowns = sim.problem.unknowns
+    sim.update_loads(integ.stage_time(0.0, dt), "right", integ.u0)
+    unknowns = sim.model.unknowns
     u, theta = unknowns
     rng = np.random.default_rng(0)
     u.x.array[:] = 2e-6 * rng.standard_normal(u.x.array.shape)
@@ -151,10 +151,10 @@ def test_shell_step_jacobian_matches_central_differences(comm):
 def test_mpi_shell_run_reproduces_serial_angle_history(comm):
     """Under mpirun the world run equals a COMM_SELF run on rank 0 (to 1e-8 rad)."""
     case = _case(time={"end": "4 ms", "step": "0.25 ms"})
-    world = MembraneSimulation(case, comm).run(None, progress=False)
+    world = build_simulation(case, comm).run(progress=False)
     ok, diff = True, 0.0
     if comm.rank == 0:
-        serial = MembraneSimulation(case, MPI.COMM_SELF).run(None, progress=False)
+        serial = build_simulation(case, MPI.COMM_SELF).run(progress=False)
         a, b = world.history, serial.history
         if a["time"].shape != b["time"].shape or np.any(a["time"] != b["time"]):
             ok, diff = False, float("inf")
@@ -175,7 +175,7 @@ def test_mpi_shell_run_reproduces_serial_angle_history(comm):
 )
 def test_shell_rejects_what_it_does_not_model(comm, tables, key):
     with pytest.raises(CaseError, match=key.replace(".", r"\.")):
-        MembraneSimulation(_case(**tables), comm)
+        build_simulation(_case(**tables), comm)
 
 
 def test_shell_fixed_point_holds_the_nodes_within_its_radius(comm):
@@ -189,16 +189,16 @@ def test_shell_fixed_point_holds_the_nodes_within_its_radius(comm):
         environment={"clamped": [], "fixed_point": point, "fixed_radius": radius},
         time={"end": "2 ms", "step": "0.25 ms"},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     Vu = sim.u.function_space
-    (bc,) = sim.problem.displacement_bcs
+    (bc,) = sim.model.displacement_bcs
     held = np.zeros(Vu.dofmap.index_map.size_local + Vu.dofmap.index_map.num_ghosts, bool)
     held[bc.dof_indices()[0] // 3] = True
     near = np.linalg.norm(Vu.tabulate_dof_coordinates() - point, axis=1) <= radius
     assert np.array_equal(held, near)
     assert comm.allreduce(int(near[: Vu.dofmap.index_map.size_local].sum())) >= 3
-    assert len(sim.problem.bcs) == 1  # nothing on the angles
-    sim.run(None, progress=False)
+    assert len(sim.model.bcs) == 1  # nothing on the angles
+    sim.run(progress=False)
     u = sim.u.x.array.reshape(-1, 3)
     assert np.all(u[held] == 0.0)
     moved = comm.allreduce(float(np.abs(u).max(initial=0.0)), op=MPI.MAX)

@@ -50,7 +50,7 @@ def static_tip_angles(comm, **kwargs):
         x = V.tabulate_dof_coordinates()[:, 0]
         bs = V.dofmap.index_map_bs
         fixed = np.zeros(x.size, dtype=bool)
-        for bc in sim.problem.bcs:
+        for bc in sim.model.bcs:
             fixed[bc.dof_indices()[0] // bs] = True
         assert np.array_equal(fixed, x <= CLAMP * (1 + 1e-9))
     return fields, angles

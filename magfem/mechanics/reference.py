@@ -65,7 +65,7 @@ Timoshenko, Young & Weaver, *Vibration Problems in Engineering*, 1974,
 The plate correction E' = E/(1 − ν²) applies to a plate in cylindrical
 bending (plane strain across the width); a narrow beam has E' = E.
 
-3. Ground contact (see :mod:`magfem.mechanics.contact`)
+3. Ground contact (see :mod:`magfem.mechanics.contacts`)
 -------------------------------------------------------
 A flat membrane of density ρ and thickness h resting on the ground presses
 with p = ρ g h (Pa). The penalty pressure is p = k_n r(δ) with the C¹ ramp
@@ -95,7 +95,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import integrate, optimize
 
-from magfem.mechanics.contact import penalty_penetration
+from magfem.mechanics.contacts.penalty import penalty_penetration
 
 __all__ = [
     "ElasticaSolution",

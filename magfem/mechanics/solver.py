@@ -7,7 +7,7 @@ and reports convergence without ever ignoring it: :meth:`NewtonSolver.solve`
 returns a :class:`NewtonReport` whose ``converged`` is
 ``SNES.getConvergedReason() > 0``.
 
-Default options (FENICSX.md, measured on thin cantilevers): Newton with
+Default options (measured on thin cantilevers, docs/mechanics.md): Newton with
 ``basic`` line search (``bt`` stalled), direct LU by MUMPS, and
 ``snes_divergence_tolerance = 1e12`` (practically unlimited: PETSc's default 1e4 stops
 Newton on thin plates whose first iterate raises ‖R‖ a thousandfold).
@@ -36,10 +36,10 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
+from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
 from magfem.mechanics.spec import SolverSpec
 
 __all__ = [
-    "JIT_OPTIONS",
     "NewtonReport",
     "NewtonSolver",
     "SolverTimings",
@@ -48,30 +48,6 @@ __all__ = [
 ]
 
 _COUNTER = itertools.count()
-
-FORM_COMPILER_OPTIONS: dict[str, Any] = {"scalar_type": PETSc.ScalarType}
-JIT_OPTIONS: dict[str, Any] = {
-    "cffi_extra_compile_args": ["-O3", "-g0", "-ffast-math", "-fno-finite-math-only"]
-}
-"""C compiler flags of every mechanics form (``dolfinx.fem.form(..., jit_options=...)``).
-
-``-ffast-math`` lets the compiler reorder the long sums of the element tangent
-and vectorise them: the default case's Jacobian (P2 hexahedra, 27 points)
-takes 12.5-16 ms instead of 35-41 ms per call without contact and 24 ms
-instead of 43-53 ms with ground contact on the whole boundary (the facet
-kernel gains less), ``benchmarks/dynamics_speed.py assembly`` with each flag
-set back to back (-O3 -march=native: 28 ms without contact), with results
-equal to the -O2 kernels' up to round-off. ``-fno-finite-math-only`` keeps the
-IEEE meaning of NaN and infinity: an inverted element must still give a NaN
-residual, which the solver reports as a failed step. No ``-march=native``
-(it gains < 10 % here, and a shared form cache must not hold code one CPU of
-a cluster cannot run). The flags are compile flags only: the kernels are not
-linked with ``-ffast-math``, so the process's floating-point mode (denormals)
-is untouched. ``-g0`` drops the debug information Python's own compile
-flags ask for: the cold compile of the default case's step forms took 25 s
-with these flags against 23 s with the former ``-O2`` (40-44 s without
-``-g0``; /tmp scripts on the 2-core machine under load, back to back).
-"""
 
 
 @dataclass

@@ -259,8 +259,8 @@ class SolverSpec:
 class ContactSpec:
     """``[contact]``: ground plane contact (penalty, regularised Coulomb friction).
 
-    The contact model lives in :mod:`magfem.mechanics.contact` (owned by the
-    verification work); it may extend this table with its own parameters.
+    The laws: :mod:`magfem.mechanics.contacts.penalty` (ground) and
+    :mod:`magfem.mechanics.contacts.self_contact`.
     """
 
     ground: bool = False
@@ -289,7 +289,8 @@ class ContactSpec:
     default case but is wrong there, because the arm flips over past 180° after
     the field reverses and lands on its ``top`` face."""
     self_contact: bool = False
-    """Contact between cell groups of the robot (arm–arm), :mod:`magfem.mechanics.self_contact`."""
+    """Contact between cell groups of the robot (arm–arm),
+    :mod:`magfem.mechanics.contacts.self_contact`."""
     self_contact_groups: tuple[str, ...] = ()
     """Cell groups that may touch each other (default: the robot's arms/petals)."""
     self_contact_penalty: float = quantity(

@@ -33,9 +33,10 @@ from mpi4py import MPI
 
 from magfem.case import Case, parse_case
 from magfem.mechanics import reference as ref
-from magfem.mechanics.contact import create_ground_contact_law
+from magfem.mechanics.contacts.penalty import create_penalty_law
 from magfem.mechanics.observers import TIP_OFFSET
-from magfem.mechanics.simulation import MembraneSimulation
+from magfem.mechanics.simulation import Simulation
+from magfem.pipeline import build_simulation
 
 # --- cantilever --------------------------------------------------------------------------------
 
@@ -189,7 +190,7 @@ def static_tip_angles(
     step: float | None = None,
     size_across: float | None = None,
     layers: int = 1,
-) -> tuple[MembraneSimulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+) -> tuple[Simulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
 
     Adaptive steps may not land on the fractions exactly; the reference is
@@ -211,8 +212,8 @@ def static_tip_angles(
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
     )
-    sim = MembraneSimulation(case, comm)
-    history = sim.run(None, progress=False).history
+    sim = build_simulation(case, comm)
+    history = sim.run(progress=False).history
     t, angle = history["time"], history["angle_arm"]
     rows = [int(np.argmin(np.abs(t - f))) for f in fractions]
     return sim, t[rows] * b_max, angle[rows]
@@ -261,7 +262,7 @@ def measured_frequency(
     plane: str,
     expected: float,
     amplitude: float = 1e-3,
-) -> tuple[MembraneSimulation, float]:
+) -> tuple[Simulation, float]:
     """(simulation, first bending frequency in Hz) of the unmagnetised cantilever, modal push.
 
     The push is the velocity of the first mode with Kirchhoff kinematics:
@@ -285,7 +286,7 @@ def measured_frequency(
         size_across=min(size, width) if model == "surface" else None,
         time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
     vertical = sim.gdim - 1
     shell = model == "surface"
     clamp = CLAMP_LENGTH - (SHELL_CLAMP_INSET * THICKNESS if shell else 0.0)
@@ -306,15 +307,15 @@ def measured_frequency(
             return rate
 
         sim.integrator.parts[1].v0.interpolate(turn)
-    history = sim.run(None, progress=False).history
+    history = sim.run(progress=False).history
     return sim, free_vibration_frequency(history["time"], history["angle_arm"])
 
 
-def global_dofs(sim: MembraneSimulation) -> int:
+def global_dofs(sim: Simulation) -> int:
     """Number of unknowns over all ranks (the shell's director angles included)."""
     return sum(
         int(f.function_space.dofmap.index_map.size_global * f.function_space.dofmap.index_map_bs)
-        for f in sim.problem.unknowns
+        for f in sim.model.unknowns
     )
 
 
@@ -379,14 +380,14 @@ def rest_on_ground(
     :func:`reference.resting_pressure`, with the law the case builds.
     """
     case = ground_membrane_case(model, contact, {"end": end, "step": step})
-    sim = MembraneSimulation(case, comm)
-    history = sim.run(None, progress=False).history
-    robot = sim.robot
+    sim = build_simulation(case, comm)
+    history = sim.run(progress=False).history
+    robot = sim.model.robot
     ds = ufl.Measure(
         "ds", robot.mesh, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": 4}
     )
     penetration = -mean_value(comm, sim.u[sim.gdim - 1], ds(robot.groups["bottom"][1]))
-    law = create_ground_contact_law(
+    law = create_penalty_law(
         case.contact, shear_modulus=SHEAR_MODULUS, density=DENSITY, thickness=MEMBRANE_THICKNESS
     )
     pressure = ref.resting_pressure(DENSITY, MEMBRANE_THICKNESS, GRAVITY)
@@ -419,7 +420,7 @@ def slide_on_ground(
         {"regularization_velocity": regularization_velocity, **contact},
         {"end": end, "step": step},
     )
-    sim = MembraneSimulation(case, comm)
+    sim = build_simulation(case, comm)
 
     def push(X: Any) -> Any:
         v = np.zeros((sim.gdim, X.shape[1]))
@@ -427,11 +428,11 @@ def slide_on_ground(
         return v
 
     sim.integrator.v0.interpolate(push)
-    history = sim.run(None, progress=False).history
+    history = sim.run(progress=False).history
     mass = DENSITY * MEMBRANE_THICKNESS * MEMBRANE_LENGTH * MEMBRANE_WIDTH
     v = np.sqrt(2 * history["energy_kinetic"] / mass)
     t = history["time"]
     sliding = v > 10 * regularization_velocity
     deceleration = -np.polyfit(t[sliding], v[sliding], 1)[0] if sliding.sum() > 2 else np.nan
-    dx = ufl.Measure("dx", sim.robot.mesh, metadata={"quadrature_degree": 4})
+    dx = ufl.Measure("dx", sim.model.robot.mesh, metadata={"quadrature_degree": 4})
     return float(deceleration), mean_value(comm, sim.u[0], dx)

@@ -1,0 +1,122 @@
+"""The interface of a contact, and the registry of the ``[[contacts]]`` kinds.
+
+A :class:`Contact` acts on the body in one or both of two ways:
+
+* UFL terms: a traction on the model's contact faces
+  (:class:`~magfem.mechanics.models.base.Face`), whose virtual work
+  :meth:`Contact.work` returns. In dynamic runs the problem evaluates it at
+  the end of the step (x_{n+1}, v_{n+1}), which lets a landing body stop
+  within the step (docs/mechanics.md, "Ground contact");
+* Newton hooks for terms that are not local to a cell (self-contact couples
+  distant dofs): :meth:`Contact.attach` registers them on the solver.
+
+The time loop calls :meth:`Contact.before_solve` before each Newton solve,
+:meth:`Contact.after_step` after each accepted step, and
+:meth:`Contact.observe` for the history; it never knows which contact it
+holds.
+
+The ground plane and self-contact are set in ``[contact]``; further contact
+kinds are ``[[contacts]]`` tables whose ``kind`` names a spec class
+registered in :data:`CONTACTS`, whose ``build(model, material)`` makes it.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+
+from magfem.mechanics.models.base import Face, Model
+from magfem.mechanics.solver import NewtonSolver
+from magfem.mechanics.spec import MaterialSpec
+from magfem.plugins import Registry, build_registered
+
+__all__ = ["CONTACTS", "Contact", "ContactKindSpec", "sum_work"]
+
+
+class Contact:
+    """A contact of the body with something (module docstring). Subclasses override what applies.
+
+    Attributes:
+        name: a word for its history columns.
+        surfaces: the model's contact faces it acts on (``[contact] surfaces`` style names).
+    """
+
+    name = "contact"
+    surfaces: tuple[str, ...] = ("all",)
+
+    def work(self, faces: Sequence[Face]) -> list[ufl.Form] | None:
+        """Virtual work per unknown of its tractions on ``faces``, or None (no UFL terms)."""
+        return None
+
+    def energy(self, model: Model) -> ufl.Form | None:
+        """Stored (penalty) energy at the accepted state, for the history, or None."""
+        return None
+
+    def attach(self, solver: NewtonSolver) -> None:
+        """Register Newton hooks for terms outside the UFL residual (collective)."""
+
+    def before_solve(self) -> None:
+        """Refresh data frozen within a step (after the stage is set, collective)."""
+
+    def after_step(self) -> None:
+        """Act on the accepted state of a dynamic step (collective)."""
+
+    def breakpoints(self, t0: float, t1: float) -> npt.NDArray[np.float64]:
+        """Instants in (t0, t1] (s) where the contact switches (steps land on them), sorted."""
+        return np.zeros(0)
+
+    def press(self, model: Model, acceleration: npt.NDArray[np.float64]) -> None:
+        """Prepare a quasi-static start under the body acceleration (m/s², gdim)."""
+
+    def columns(self) -> list[str]:
+        """History columns of :meth:`observe`."""
+        return []
+
+    def observe(self, t: float) -> dict[str, float]:
+        """Observables at the accepted state (collective); keys are :meth:`columns`."""
+        return {}
+
+    def events(self) -> list[str]:
+        """Messages since the last call (touch, release), identical on every rank."""
+        return []
+
+    def summary(self) -> dict[str, float]:
+        """Scalars over the whole run."""
+        return {}
+
+
+def sum_work(faces: Sequence[Face], tractions: Sequence[Any]) -> list[Any]:
+    """Σ over faces of the virtual work of one traction per face, per unknown."""
+    total: list[Any] | None = None
+    for face, t in zip(faces, tractions, strict=True):
+        work = face.work(t)
+        total = work if total is None else [a + b for a, b in zip(total, work, strict=True)]
+    if total is None:
+        raise ValueError("sum_work needs at least one face")
+    return total
+
+
+CONTACTS: Registry[type[Any]] = Registry("contact kind")
+"""``kind`` of a ``[[contacts]]`` table -> its spec class (frozen dataclass with ``build``)."""
+
+
+@dataclass(frozen=True)
+class ContactKindSpec(ABC):
+    """A ``[[contacts]]`` table: validated into the spec class its ``kind`` names.
+
+    The registered spec classes derive from it and build their contact.
+    """
+
+    @abstractmethod
+    def build(self, model: Model, material: MaterialSpec) -> Contact:
+        """The contact this table describes, acting on ``model`` of ``material``."""
+
+    @classmethod
+    def __from_table__(cls, table: Mapping[str, Any], where: str) -> Any:
+        return build_registered(CONTACTS, table, where)

@@ -1,0 +1,222 @@
+"""Contact between surfaces of one body (arm–arm, petal–petal): the self-contact part.
+
+Law: :mod:`.law`; search and pairing: :mod:`.search`; coupled Newton terms:
+:mod:`.assembly`. History columns: ``self_contact_force`` (N; N/m × depth
+for strips) in total and per pair of groups, the largest penetration and
+the pressure-weighted centroid of the touching points; touch/release events
+go to the log.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem, la
+from mpi4py import MPI
+
+from magfem.config import CaseError
+from magfem.mechanics.contacts.base import Contact
+from magfem.mechanics.contacts.self_contact.assembly import CoupledTerms
+from magfem.mechanics.contacts.self_contact.law import TOUCH, create_self_contact_law
+from magfem.mechanics.contacts.self_contact.search import SurfacePairing
+from magfem.mechanics.integrator import TimeIntegrator
+from magfem.mechanics.models.base import Model
+from magfem.mechanics.solver import NewtonSolver
+from magfem.mechanics.spec import ContactSpec
+
+__all__ = ["SelfContact"]
+
+
+class SelfContact(Contact):
+    """Two-pass penalty contact between the surfaces of cell groups of one body (collective).
+
+    Args:
+        spec: ``[contact]`` (penalty, onset, exclusion, groups; default groups:
+            the robot's arms).
+        model: the body; a continuum model (one displacement unknown).
+        shear_modulus: μ (Pa), which scales the penalty stiffness.
+
+    Raises:
+        CaseError: a model with more unknowns than the displacement (the
+            shell), fewer than two groups, an unknown or non-cell group.
+    """
+
+    name = "self_contact"
+
+    def __init__(self, spec: ContactSpec, model: Model, *, shear_modulus: float):
+        if len(model.unknowns) != 1:
+            raise CaseError(
+                "contact.self_contact", True, "arm-arm contact needs the solid or strip model"
+            )
+        self.model = model
+        robot = model.robot
+        law = create_self_contact_law(spec, shear_modulus=shear_modulus, thickness=robot.thickness)
+        groups = spec.self_contact_groups or tuple(arm.name for arm in robot.arms)
+        V = model.u.function_space
+        self.pairing = p = SurfacePairing(
+            robot, V, groups, law, quadrature_degree=model.quadrature_degree
+        )
+        integ = model.integrator
+        assert isinstance(integ, TimeIntegrator)  # one unknown
+        self.integrator = integ
+        self.terms = CoupledTerms(p, integ)
+        X = ufl.SpatialCoordinate(V.mesh)
+        phi = ufl.TestFunction(p.Vc)
+        # nodal forces at the observed state (u_geom = u_n during observation)
+        self._force_form = fem.form(ufl.inner(p.pressure(X + p.u_geom) * p.nbar, phi) * p.measure)
+        self._active: dict[tuple[int, int], bool] = {}
+        self.first_touch: dict[tuple[int, int], float] = {}
+        self.max_force = 0.0
+        self.max_penetration = 0.0
+        self._events: list[str] = []
+
+    @property
+    def engaged(self) -> bool:
+        """Some slave point of the body has a master (all ranks agree)."""
+        return self.pairing.engaged
+
+    def energy(self, model: Model) -> ufl.Form:
+        X = ufl.SpatialCoordinate(model.robot.mesh)
+        return self.pairing.energy(X + model.u)
+
+    def attach(self, solver: NewtonSolver) -> None:
+        self.terms.attach(solver, self.model.bcs)
+
+    def add_residual(self, x: Any, b: Any) -> None:
+        """The coupled residual terms at the iterate ``x`` (see :class:`CoupledTerms`)."""
+        self.terms.add_residual(x, b)
+
+    def add_jacobian(self, x: Any, A: Any) -> None:
+        """The coupled Jacobian terms at the iterate ``x`` (see :class:`CoupledTerms`)."""
+        self.terms.add_jacobian(x, A)
+
+    def before_solve(self) -> None:
+        """Pair the surfaces at the stage displacement (1 − αf) u + αf u_n (collective)."""
+        integ = self.integrator
+        u = integ.u.x.array
+        if integ.dynamic and integ.params is not None:
+            af = integ.params.alpha_f
+            self.pairing.search((1.0 - af) * u + af * integ.u0.x.array)
+        else:
+            self.pairing.search(u.copy())
+
+    # --- observation ------------------------------------------------------------------------
+
+    @property
+    def pairs(self) -> list[tuple[int, int]]:
+        """Unordered pairs (i < j) of group indices."""
+        return list(itertools.combinations(range(len(self.pairing.groups)), 2))
+
+    def pair_name(self, pair: tuple[int, int]) -> str:
+        """``<group_i>__<group_j>``."""
+        return f"{self.pairing.groups[pair[0]]}__{self.pairing.groups[pair[1]]}"
+
+    def columns(self) -> list[str]:
+        """CSV columns written by :meth:`observe`."""
+        cols = [
+            "self_contact_force",
+            "self_contact_penetration",
+            "self_contact_x",
+            "self_contact_y",
+            "self_contact_z",
+        ]
+        return cols + [f"self_contact_force_{self.pair_name(p)}" for p in self.pairs]
+
+    def observe(self, t: float) -> dict[str, float]:
+        """Contact observables at the accepted state u_n (collective).
+
+        Refreshes the pairing at that state. Returns the :meth:`columns`:
+        force (N; strips: N/m × depth) summed over pairs and per pair
+        (mean of the two passes' resultant magnitudes), the largest
+        penetration −g (m, >= 0) and the pressure-weighted centroid of the
+        touching vertices (m; strips: (x, 0, z); NaN when nothing touches).
+        Records touch/release events.
+        """
+        p = self.pairing
+        p.search(self.model.integrator.u0.x.array)
+        width = self.model.depth
+        gdim = p.gdim
+        f = fem.assemble_vector(self._force_form)
+        f.scatter_reverse(la.InsertMode.add)
+        nodes = p.nodes[p.nodes < p.size_local]
+        force = f.array.reshape(-1, gdim)[nodes]
+        label, partner = p.node_label[nodes], p.partner[nodes]
+        x = p.reference[nodes] + p.vertex_displacement.x.array.reshape(-1, gdim)[nodes]
+        pen = np.where(partner >= 0, -p.gap[nodes], 0.0)
+        ng = len(p.groups)
+        resultant = np.zeros((ng, ng, gdim))  # force on slave group i from master j
+        weight = np.zeros((ng, ng))
+        moment = np.zeros((ng, ng, gdim))
+        deepest = np.zeros((ng, ng))
+        touching = partner >= 0
+        mag = np.linalg.norm(force, axis=1)
+        li, pj = label[touching], partner[touching]
+        np.add.at(resultant, (li, pj), force[touching])
+        np.add.at(weight, (li, pj), mag[touching])
+        np.add.at(moment, (li, pj), mag[touching, None] * x[touching])
+        np.maximum.at(deepest, (li, pj), pen[touching])
+        resultant, weight, moment = (_sum(a, p.comm) for a in (resultant, weight, moment))
+        deepest_all = np.zeros_like(deepest)
+        p.comm.Allreduce(deepest, deepest_all, op=MPI.MAX)
+        deepest = deepest_all
+        row: dict[str, float] = {}
+        total, total_w, total_m = 0.0, 0.0, np.zeros(gdim)
+        for pair in self.pairs:
+            i, j = pair
+            fp = 0.5 * width * (np.linalg.norm(resultant[i, j]) + np.linalg.norm(resultant[j, i]))
+            row[f"self_contact_force_{self.pair_name(pair)}"] = float(fp)
+            w = weight[i, j] + weight[j, i]
+            total += fp
+            total_w += w
+            total_m += moment[i, j] + moment[j, i]
+            active = bool(max(deepest[i, j], deepest[j, i]) > TOUCH * self.pairing.law.onset)
+            was = self._active.get(pair, False)
+            if active and not was:
+                where = (moment[i, j] + moment[j, i]) / w
+                self.first_touch.setdefault(pair, t)
+                self._events.append(
+                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {self.pairing.groups[j]} at "
+                    f"{_mm(where)} mm, force {fp:.3g} N"
+                )
+            elif was and not active:
+                self._events.append(
+                    f"t = {t:.6g} s: {self.pairing.groups[i]} leaves {self.pairing.groups[j]}"
+                )
+            self._active[pair] = active
+        centroid = total_m / total_w if total_w > 0 else np.full(gdim, np.nan)
+        c3 = centroid if gdim == 3 else np.array([centroid[0], 0.0, centroid[1]])
+        penetration = float(np.max(deepest)) if deepest.size else 0.0
+        row["self_contact_force"] = total
+        row["self_contact_penetration"] = penetration
+        row["self_contact_x"], row["self_contact_y"], row["self_contact_z"] = map(float, c3)
+        self.max_force = max(self.max_force, total)
+        self.max_penetration = max(self.max_penetration, penetration)
+        return row
+
+    def events(self) -> list[str]:
+        out, self._events = self._events, []
+        return out
+
+    def summary(self) -> dict[str, float]:
+        """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)."""
+        out = {
+            f"first_touch_{self.pair_name(p)}": self.first_touch.get(p, float("nan"))
+            for p in self.pairs
+        }
+        out["max_self_contact_force"] = self.max_force
+        out["max_self_contact_penetration"] = self.max_penetration
+        return out
+
+
+def _sum(a: npt.NDArray[np.float64], comm: MPI.Comm) -> npt.NDArray[np.float64]:
+    out = np.zeros_like(a)
+    comm.Allreduce(np.ascontiguousarray(a), out, op=MPI.SUM)
+    return out
+
+
+def _mm(x: npt.NDArray[np.float64]) -> str:
+    return "(" + ", ".join(f"{1e3 * v:.3g}" for v in x) + ")"

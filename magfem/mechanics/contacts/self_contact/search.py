@@ -1,0 +1,482 @@
+r"""Self-contact search: the contact surfaces of cell groups and their pairing.
+
+Search (closest point, nearest-node form).
+    Normals and touching are decided at the vertices of the contact surfaces
+    (a P1 vector space): for every slave vertex, the nearest vertex x_m of
+    each master group is found with a k-d tree over the *current* positions
+    (scipy ``cKDTree``), and of the contact facets around it the one whose
+    normal most opposes the slave's gives n̄ (facet normals from the current
+    vertices, oriented by the area-weighted nodal normals
+    n_m ∝ ∫ J F⁻ᵀ N φ_m dA). Candidates must face each other
+    (n_s·n_m < −1/2), the slave's foot on the facet's plane must lie inside
+    the facet (barycentric coordinates ≥ −0.1; a point beyond the master's
+    edge does not touch it) and less than half a thickness inside
+    (a point that went through is not pulled back the wrong way, and where
+    two arms meet, the bottom face of one does not see the top face of the
+    other through the thickness: with a band of one thickness the 1 mm bow
+    tie paired those at g = −h and Newton failed at 1 ms). Then every
+    displacement node of the slave surface (vertices and, for P2/P3, edge
+    and face nodes) takes the master group of the paired vertices of its
+    facets and, in that group, the nearest master *displacement node* on
+    the face that n̄ belongs to (its normal within 60° of n̄): x̄ at
+    a slave quadrature point is interpolated from those nodes with the
+    displacement's own shape functions, so on matching meshes it is the
+    master's own surface and the reaction is distributed over the master's
+    nodes like the traction over the slave's (with vertices only, the P2
+    edge nodes carried half the pressure and the faces rippled). n̄ is
+    interpolated linearly from the vertices. The gap to the master's tangent
+    plane equals the gap to the surface for a flat master and is off by
+    O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
+    Nodes without a master have x̄ at their own position (no gap there).
+
+Parallel.
+    Each rank owns the vertices and nodes it owns; their positions, normals,
+    groups and reference positions are gathered on every rank
+    (``allgather``) and every rank searches for its own (owned and ghost)
+    vertices and nodes; the current master node positions are gathered the
+    same way at every residual and Jacobian evaluation, and the reaction
+    rows a rank computes for a master node owned elsewhere travel through
+    PETSc's off-process assembly. Memory and time of the gather grow with
+    the number of contact nodes of the whole body (about 10⁴–10⁵ for the
+    0.5 mm bow tie, ≲ a few MB): fine for the membranes here, a
+    bounding-box-filtered exchange is the next step beyond ~10⁶ surface
+    nodes.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem, la
+from dolfinx import mesh as dmesh
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+from magfem.config import CaseError
+from magfem.geometry.robot_mesh import RobotMesh, locate
+from magfem.mechanics.contacts.penalty import penalty_energy, penalty_ramp
+from magfem.mechanics.contacts.self_contact.law import (
+    ADJACENT,
+    CANDIDATES,
+    FACING,
+    INSIDE,
+    SelfContactLaw,
+)
+
+__all__ = ["SurfacePairing"]
+
+
+class SurfacePairing:
+    """The contact surfaces of cell groups, paired slave to master (collective).
+
+    Args:
+        robot: the robot mesh with its named cell groups.
+        V: the displacement space.
+        groups: names of the cell groups that may touch each other (>= 2).
+        law: penalty constants.
+        quadrature_degree: degree of the contact surface measure.
+        key: case key named in errors.
+
+    Attributes:
+        measure: ``ds`` over the contact surfaces (explicit quadrature degree).
+        u_geom: the displacement the pairing and the gap are evaluated at.
+        xbar: master point (m) per displacement node (moved to the master
+            nodes' current position by :meth:`place`).
+        nbar: master unit normal per slave vertex (P1 vector Function; 0 where
+            no master is near).
+        partner, gap: per contact vertex, its master group (-1: none) and gap (m).
+        engaged: some slave point of the body has a master (all ranks agree).
+    """
+
+    def __init__(
+        self,
+        robot: RobotMesh,
+        V: fem.FunctionSpace,
+        groups: Sequence[str],
+        law: SelfContactLaw,
+        *,
+        quadrature_degree: int,
+        key: str = "contact.self_contact_groups",
+    ) -> None:
+        domain = robot.mesh
+        self.comm: MPI.Comm = domain.comm
+        self.domain = domain
+        self.gdim = domain.geometry.dim
+        self.law = law
+        self.V = V
+        names = list(dict.fromkeys(groups))
+        if len(names) < 2:
+            raise CaseError(key, list(groups), "name at least two cell groups that may touch")
+        self.groups = names
+        facets, facet_label = self._surface_facets(robot, key)
+        tags = dmesh.meshtags(domain, self.gdim - 1, facets, facet_label + 1)
+        ds = ufl.Measure(
+            "ds",
+            domain=domain,
+            subdomain_data=tags,
+            metadata={"quadrature_degree": quadrature_degree},
+        )
+        self.measure = ds(tuple(range(1, len(names) + 1)))
+        self._surface_vertices(facets, facet_label)
+        self._surface_nodes(facets, facet_label)
+        self.xbar = fem.Function(V, name="self_contact_point")
+        self.nbar = fem.Function(self.Vc, name="self_contact_normal")
+        self.u_geom = fem.Function(V, name="self_contact_displacement")
+        self.vertex_displacement = fem.Function(self.Vc)
+        self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
+        self.onset = fem.Constant(domain, np.float64(law.onset))
+        self.engaged = False
+        F = ufl.Identity(self.gdim) + ufl.grad(self.u_geom)
+        cofactor = ufl.det(F) * ufl.inv(F).T
+        N = ufl.FacetNormal(domain)
+        phi = ufl.TestFunction(self.Vc)
+        self._normal_form = fem.form(ufl.inner(cofactor * N, phi) * self.measure)
+
+    def _surface_facets(
+        self, robot: RobotMesh, key: str
+    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+        """Exterior facets of the groups (sorted) and the group index of each."""
+        domain = self.domain
+        tdim = domain.topology.dim
+        num_cells = domain.topology.index_map(tdim)
+        cell_label = np.full(num_cells.size_local + num_cells.num_ghosts, -1, dtype=np.int32)
+        for i, name in enumerate(self.groups):
+            try:
+                dim, cells = locate(robot, name)
+            except KeyError:
+                raise CaseError(
+                    key, name, "no such group; groups are " + ", ".join(sorted(robot.groups))
+                ) from None
+            if dim != tdim:
+                raise CaseError(key, name, "is not a cell group")
+            cell_label[cells] = i
+        self._num_cells = len(cell_label)
+        domain.topology.create_connectivity(tdim - 1, tdim)
+        exterior = dmesh.exterior_facet_indices(domain.topology)
+        f2c = domain.topology.connectivity(tdim - 1, tdim)
+        facet_label = np.array([cell_label[f2c.links(f)[0]] for f in exterior], dtype=np.int32)
+        keep = facet_label >= 0
+        facets, facet_label = exterior[keep].astype(np.int32), facet_label[keep]
+        order = np.argsort(facets)
+        return facets[order], facet_label[order]
+
+    def _surface_vertices(
+        self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
+    ) -> None:
+        """Contact data at the vertices (P1 space Vc): groups, facets, facets around each."""
+        domain, gdim = self.domain, self.gdim
+        tdim, fdim = domain.topology.dim, domain.topology.dim - 1
+        self.Vc = Vc = fem.functionspace(domain, ("Lagrange", 1, (gdim,)))
+        imap = Vc.dofmap.index_map
+        n_nodes = imap.size_local + imap.num_ghosts
+        self.size_local = imap.size_local
+        self.node_label = np.full(n_nodes, -1, dtype=np.int32)
+        for i in range(len(self.groups)):
+            nodes = fem.locate_dofs_topological(Vc, fdim, facets[facet_label == i])
+            free = nodes[self.node_label[nodes] < 0]
+            self.node_label[free] = i
+        self.nodes = np.flatnonzero(self.node_label >= 0).astype(np.int32)
+        vmap0 = domain.topology.index_map(0)
+        vertex_to_dof = np.full(vmap0.size_local + vmap0.num_ghosts, -1, dtype=np.int32)
+        domain.topology.create_connectivity(tdim, 0)
+        c2v = domain.topology.connectivity(tdim, 0).array.reshape(self._num_cells, -1)
+        vertex_to_dof[c2v] = Vc.dofmap.list
+        domain.topology.create_connectivity(fdim, 0)
+        f2v = domain.topology.connectivity(fdim, 0)
+        self.facet_dofs = np.array([vertex_to_dof[f2v.links(f)] for f in facets], dtype=np.int32)
+        if self.facet_dofs.size == 0:
+            self.facet_dofs = self.facet_dofs.reshape(0, gdim)
+        slot = np.zeros(n_nodes, dtype=np.int32)
+        self.adjacent = np.full((n_nodes, ADJACENT), -1, dtype=np.int32)
+        for f, dofs in enumerate(self.facet_dofs):
+            for d in dofs:
+                if slot[d] < ADJACENT:
+                    self.adjacent[d, slot[d]] = f
+                    slot[d] += 1
+        self.reference = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
+        self.partner = np.full(n_nodes, -1, dtype=np.int32)
+        self.gap = np.zeros(n_nodes)
+        self._normal_c = fem.Function(Vc)  # unit outward nodal normals at the contact vertices
+
+    def _surface_nodes(
+        self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
+    ) -> None:
+        """The displacement nodes of the surfaces (vertices and higher-order nodes of V)."""
+        domain, V, gdim = self.domain, self.V, self.gdim
+        tdim, fdim = domain.topology.dim, domain.topology.dim - 1
+        vmap = V.dofmap.index_map
+        self.v_global = vmap.local_to_global(
+            np.arange(vmap.size_local + vmap.num_ghosts, dtype=np.int32)
+        ).astype(np.int64)
+        self.vlabel = np.full(vmap.size_local + vmap.num_ghosts, -1, dtype=np.int32)
+        for i in range(len(self.groups)):
+            vn = fem.locate_dofs_topological(V, fdim, facets[facet_label == i])
+            self.vlabel[vn[self.vlabel[vn] < 0]] = i
+        self.vnodes = np.flatnonzero(self.vlabel >= 0).astype(np.int32)
+        self.vreference = V.tabulate_dof_coordinates()[:, :gdim].copy()
+        domain.topology.create_connectivity(tdim, fdim)
+        c2f = domain.topology.connectivity(tdim, fdim)
+        f2c = domain.topology.connectivity(fdim, tdim)
+        layout = V.dofmap.dof_layout
+        closure = [
+            np.asarray(layout.entity_closure_dofs(fdim, i))
+            for i in range(len(c2f.links(0)) if self._num_cells else 0)
+        ]
+        rows = []
+        for f in facets:
+            c = f2c.links(f)[0]
+            rows.append(V.dofmap.cell_dofs(c)[closure[int(np.flatnonzero(c2f.links(c) == f)[0])]])
+        self.facet_vnodes = np.array(rows, dtype=np.int32).reshape(len(facets), -1)
+        self._normal_v = fem.Function(V)  # nodal normals and n̄, interpolated to the V nodes
+        self._nbar_v = fem.Function(V)
+        self.vpartner = np.full(self.vlabel.size, -1, dtype=np.int64)
+        """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
+        # contact nodes owned here, in the order of every gather (search and coupling)
+        self._vown = self.vnodes[self.vnodes < vmap.size_local]
+        self._gvglobal = np.concatenate(self.comm.allgather(self.v_global[self._vown]))
+        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
+        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
+
+    # --- the law at a point (UFL) ------------------------------------------------------------
+
+    def gap_expression(self, x: Any) -> Any:
+        """Normal gap g = (x − x̄)·n̄ (m) of the slave point at current position x (UFL)."""
+        return ufl.dot(x - self.xbar, self.nbar)
+
+    def pressure(self, x: Any) -> Any:
+        """Contact pressure k_c r(−g) >= 0 (Pa per reference area) at position x (UFL)."""
+        r, _ = penalty_ramp(-self.gap_expression(x), self.onset)
+        return self.stiffness * r
+
+    def energy(self, x: Any) -> Any:
+        """Penalty energy ½ Σ_passes ∫ k_c R(−g) dA (J; J/m for strips), UFL form."""
+        delta = -self.gap_expression(x)
+        return 0.5 * self.stiffness * penalty_energy(delta, self.onset) * self.measure
+
+    # --- search ------------------------------------------------------------------------------
+
+    def search(self, displacement: npt.NDArray[Any]) -> None:
+        """Pair the surfaces at a displacement (local array of V, m), place x̄ (collective)."""
+        self.u_geom.x.array[:] = displacement
+        gdim = self.gdim
+        self.vertex_displacement.interpolate(self.u_geom)
+        b = fem.assemble_vector(self._normal_form)
+        b.scatter_reverse(la.InsertMode.add)
+        b.scatter_forward()
+        nodes = self.nodes
+        ref = self.reference[nodes]
+        x = ref + self.vertex_displacement.x.array.reshape(-1, gdim)[nodes]
+        n = b.array.reshape(-1, gdim)[nodes]
+        norm = np.linalg.norm(n, axis=1)
+        n = n / np.where(norm > 0, norm, 1.0)[:, None]
+        self._normal_c.x.array.reshape(-1, gdim)[nodes] = n
+        self._normal_c.x.scatter_forward()
+        label = self.node_label[nodes]
+        normals, corners = self._facet_normals(n)
+        adjacent = normals[nodes]  # (nodes, ADJACENT, gdim)
+        around_corners = corners[nodes]  # (nodes, ADJACENT, facet vertices, gdim)
+        owned = nodes < self.size_local
+        parts = self.comm.allgather(
+            (x[owned], adjacent[owned], label[owned], ref[owned], around_corners[owned])
+        )
+        gx, gn, glabel, gref, gc = (np.concatenate([p[k] for p in parts]) for k in range(5))
+
+        best_dist = np.full(nodes.size, np.inf)
+        nbar = np.zeros_like(x)
+        partner = np.full(nodes.size, -1, dtype=np.int32)
+        gap = np.zeros(nodes.size)
+        law = self.law
+        for j in range(len(self.groups)):
+            in_j = glabel == j
+            slaves = np.flatnonzero(label != j)
+            if not in_j.any() or slaves.size == 0:
+                continue
+            mx, mn, mref, mc = gx[in_j], gn[in_j], gref[in_j], gc[in_j]
+            k = min(CANDIDATES, len(mx))
+            dist, idx = cKDTree(mx).query(x[slaves], k=k)
+            dist, idx = dist.reshape(slaves.size, k), idx.reshape(slaves.size, k)
+            # every facet around each candidate: facing, gap to its plane, projection inside it
+            around = mn[idx]  # (slaves, k, ADJACENT, gdim)
+            dots = np.einsum("sa,skja->skj", n[slaves], around)
+            dots[np.all(around == 0.0, axis=-1)] = np.inf
+            d = x[slaves][:, None, :] - mx[idx]
+            g = np.einsum("ska,skja->skj", d, around)
+            foot = x[slaves][:, None, None, :] - g[..., None] * around
+            far_in_reference = (
+                np.linalg.norm(ref[slaves][:, None, :] - mref[idx], axis=-1) >= law.exclusion
+            )
+            ok = (
+                (dots < FACING)
+                & (g > -law.band)
+                & far_in_reference[..., None]
+                & _inside(foot, mc[idx], INSIDE)
+            )
+            # per candidate, of its valid facets the one that most opposes the slave's normal
+            choice = np.argmin(np.where(ok, dots, np.inf), axis=-1)
+            valid = ok.any(axis=-1)
+            normal = np.take_along_axis(around, choice[..., None, None], axis=2)[:, :, 0, :]
+            g = np.take_along_axis(g, choice[..., None], axis=2)[..., 0]
+            has = valid.any(axis=1)
+            first = np.argmax(valid, axis=1)
+            rows = np.arange(slaves.size)
+            better = has & (dist[rows, first] < best_dist[slaves])
+            s = slaves[better]
+            best_dist[s] = dist[rows, first][better]
+            nbar[s] = normal[rows, first][better]
+            partner[s] = j
+            gap[s] = g[rows, first][better]
+        self.nbar.x.array.reshape(-1, gdim)[nodes] = nbar
+        self.nbar.x.scatter_forward()
+        self.partner[nodes] = partner
+        self.gap[nodes] = gap
+        self._pair_nodes()
+        self.place(self.u_geom.x.array)
+
+    def _pair_nodes(self) -> None:
+        """Pair every displacement node of the contact surfaces with a master node (collective).
+
+        A node takes the master group of the paired vertices of its facets
+        and, in that group, the nearest node of the master's surface (current
+        positions, vertices and higher-order nodes alike) whose outward normal
+        is within 60° of n̄ there (the face that n̄ belongs to, not the
+        opposite face of the membrane a thickness away): on matching meshes a
+        slave edge node faces the master's edge node, so x̄ is the master's own
+        interpolation of its surface and the reaction is distributed like the
+        slave's traction.
+        """
+        gdim = self.gdim
+        disp = self.u_geom.x.array.reshape(-1, gdim)
+        own = self._vown
+        self._normal_v.interpolate(self._normal_c)
+        self._nbar_v.interpolate(self.nbar)
+        normal = self._normal_v.x.array.reshape(-1, gdim)
+        parts = self.comm.allgather((disp[own], normal[own]))
+        position = self._gvref + np.concatenate([p[0] for p in parts])
+        mnormal = np.concatenate([p[1] for p in parts])
+        mnormal /= np.maximum(np.linalg.norm(mnormal, axis=1), 1e-300)[:, None]
+        nbar = self._nbar_v.x.array.reshape(-1, gdim)
+        group = np.full(self.vlabel.size, -1, dtype=np.int32)
+        if self.facet_vnodes.shape[0]:
+            fgroup = self.partner[self.facet_dofs].max(axis=1)
+            np.maximum.at(
+                group,
+                self.facet_vnodes.ravel(),
+                np.repeat(fgroup, self.facet_vnodes.shape[1]),
+            )
+        self.vpartner[:] = -1
+        here = self.vreference + disp
+        for j in range(len(self.groups)):
+            slaves = np.flatnonzero(group == j)
+            in_j = np.flatnonzero(self._gvlabel == j)
+            if slaves.size == 0 or in_j.size == 0:
+                continue
+            k = min(CANDIDATES, in_j.size)
+            _, idx = cKDTree(position[in_j]).query(here[slaves], k=k)
+            idx = in_j[idx.reshape(slaves.size, k)]
+            facing = (
+                np.einsum("ska,sa->sk", mnormal[idx], nbar[slaves])
+                > -FACING * np.maximum(np.linalg.norm(nbar[slaves], axis=1), 1e-300)[:, None]
+            )
+            has = facing.any(axis=1)
+            first = np.argmax(facing, axis=1)
+            self.vpartner[slaves[has]] = idx[np.arange(slaves.size), first][has]
+        self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
+
+    def place(self, displacement: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
+        """Move x̄ to the master nodes at ``displacement`` (local V array, m) (collective).
+
+        Returns, per local V node, the global V node whose position x̄ there
+        is: its master node, or the node itself where it has none (there
+        n̄ = 0 or the node lies at the rim of the contact zone).
+        """
+        gdim = self.gdim
+        disp = displacement.reshape(-1, gdim)
+        position = self._gvref + np.concatenate(self.comm.allgather(disp[self._vown]))
+        k = self.vpartner
+        paired = k >= 0
+        xbar = self.vreference + disp
+        xbar[paired] = position[k[paired]]
+        self.xbar.x.array[:] = xbar.ravel()
+        return np.where(paired, self._gvglobal[np.maximum(k, 0)], self.v_global)
+
+    def _facet_normals(
+        self, nodal: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Unit outward normals and corners of the contact facets around each vertex.
+
+        A facet's normal is the direction of least spread of its current
+        vertices (SVD; exact for segments and flat facets, the best-fit plane
+        of a warped quadrilateral), oriented along the sum of its vertices'
+        area-weighted nodal normals ``nodal`` (contact vertices, (nodes, gdim)).
+
+        Returns:
+            normals (n_nodes, ADJACENT, gdim) and the facets' current vertex
+            positions (n_nodes, ADJACENT, facet vertices, gdim) (m); zero
+            rows pad vertices with fewer facets.
+        """
+        gdim = self.gdim
+        nvf = self.facet_dofs.shape[1]
+        out = np.zeros((self.node_label.size, ADJACENT, gdim))
+        corners = np.zeros((self.node_label.size, ADJACENT, nvf, gdim))
+        if self.facet_dofs.shape[0] == 0:
+            return out, corners
+        x = self.reference + self.vertex_displacement.x.array.reshape(-1, gdim)
+        pts = x[self.facet_dofs]  # (facets, vertices, gdim)
+        _, _, vt = np.linalg.svd(pts - pts.mean(axis=1, keepdims=True))
+        normal = vt[:, -1, :]
+        full = np.zeros_like(x)
+        full[self.nodes] = nodal
+        orient = full[self.facet_dofs].sum(axis=1)
+        normal *= np.where(np.einsum("fa,fa->f", normal, orient) < 0, -1.0, 1.0)[:, None]
+        has = self.adjacent >= 0
+        out[has] = normal[self.adjacent[has]]
+        corners[has] = pts[self.adjacent[has]]
+        return out, corners
+
+
+def _inside(
+    point: npt.NDArray[np.float64], corners: npt.NDArray[np.float64], tolerance: float
+) -> npt.NDArray[np.bool_]:
+    """Whether points lie in the convex hull of facet corners, up to ``tolerance``.
+
+    Args:
+        point: (..., gdim) points on the facets' planes (m).
+        corners: (..., vertices, gdim) facet corners (m): 2 (segment), 3
+            (triangle) or 4 (quadrilateral, any vertex order: the union of the
+            four corner triangles is its hull).
+        tolerance: slack in barycentric coordinates.
+
+    Padding facets (all corners equal) contain no point.
+    """
+    nv = corners.shape[-2]
+    if nv == 2:
+        a, b = corners[..., 0, :], corners[..., 1, :]
+        e = b - a
+        ee = np.einsum("...a,...a->...", e, e)
+        t = np.einsum("...a,...a->...", point - a, e) / np.where(ee > 0, ee, np.inf)
+        return (ee > 0) & (t >= -tolerance) & (t <= 1.0 + tolerance)
+    inside = np.zeros(point.shape[:-1], dtype=bool)
+    for tri in itertools.combinations(range(nv), 3):
+        a, b, c = (corners[..., i, :] for i in tri)
+        v0, v1, v2 = b - a, c - a, point - a
+        d00 = np.einsum("...a,...a->...", v0, v0)
+        d01 = np.einsum("...a,...a->...", v0, v1)
+        d11 = np.einsum("...a,...a->...", v1, v1)
+        d20 = np.einsum("...a,...a->...", v2, v0)
+        d21 = np.einsum("...a,...a->...", v2, v1)
+        det = d00 * d11 - d01 * d01
+        safe = np.where(det > 1e-12 * (d00 * d11), det, np.inf)
+        beta = (d11 * d20 - d01 * d21) / safe
+        gamma = (d00 * d21 - d01 * d20) / safe
+        inside |= (
+            np.isfinite(safe)
+            & (beta >= -tolerance)
+            & (gamma >= -tolerance)
+            & (1.0 - beta - gamma >= -tolerance)
+        )
+    return inside

@@ -1,0 +1,198 @@
+"""The interface every structural model implements (solid, strip, shell, rod).
+
+A :class:`Model` is a discretised body: its unknowns and their time
+integrator, its elastic energy and inertia, and the kinematic handles that
+loads and contacts use — the hard-magnetic energy density at a state, the
+displacement of its mass points, the surfaces that can touch obstacles
+(:class:`Face`). The problem (:mod:`magfem.mechanics.problem`) writes the
+step residual from a model, a list of loads and a list of contacts without
+knowing which they are.
+
+A *state* is the list of UFL expressions of the model's unknowns (``[u]``
+or the shell's ``[u, θ]``); *rates* and *accelerations* are their time
+derivatives, as lists of the same shapes.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem
+
+from magfem.geometry.robot_mesh import Arm, RobotMesh
+from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
+from magfem.plugins import Registry
+
+__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model"]
+
+FluxDensity = Callable[[Any], Any]
+"""B_a(x) (T) as a UFL 3-vector of a current position x (UFL 3-vector, m)."""
+
+
+@dataclass(frozen=True)
+class BodySetup:
+    """What a model needs to know about the robot beyond its mesh.
+
+    Attributes:
+        depth: out-of-plane depth (m) of a 2D strip, whose integrals are per
+            unit depth (1 for 3D models): multiplies per-depth totals.
+        center: the robot's centre in mesh coordinates (m): the shell's
+            bending frame of radial robots turns about it.
+    """
+
+    depth: float = 1.0
+    center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Face:
+    """A surface of the body that may touch an obstacle, at one state (UFL).
+
+    Attributes:
+        position: current position x of its points (UFL gdim-vector, m).
+        velocity: their velocity (UFL gdim-vector, m/s).
+        work: maps a traction t (UFL gdim-vector, Pa per reference area) to
+            its virtual work on each unknown's test function (list of forms,
+            one per unknown), integrated over the face.
+        measure: the measure the face is integrated over (``ds`` of facets or
+            ``dx`` of a mid-surface), explicit quadrature degree.
+        facets: local indices of the face's facets, or None when every node of
+            the mesh is on it (a mid-surface).
+    """
+
+    position: Any
+    velocity: Any
+    work: Callable[[Any], list[Any]]
+    measure: Any
+    facets: npt.NDArray[np.int32] | None
+
+
+class Model(ABC):
+    """A discretised robot body (see the module docstring).
+
+    Subclasses set these attributes in their constructor:
+
+    Attributes:
+        robot: the robot mesh and its groups.
+        gdim: geometric dimension of the mesh (2: strip side view (x, z); 3).
+        unknowns: the unknowns, displacement first (m; angles in rad).
+        tests: a test function per unknown.
+        integrator: the time integrator of the unknowns.
+        dx: cell measure with the model's quadrature degree.
+        quadrature_degree: the degree of every measure of the model.
+        mass_density: mass per unit of the mesh's measure (kg/m³ solid; kg/m²
+            shell; kg/m² per unit depth strip) as a UFL scalar.
+        face_offset: height of the mesh above the robot's bottom face (m).
+        depth: out-of-plane depth of a strip (m), 1 for 3D models.
+        magnetization: remanent magnetization M̃ (DG0, A/m).
+        bcs: Dirichlet conditions (homogeneous) of every unknown.
+        displacement_bcs: the conditions on the displacement.
+        free_body: nothing holds the body.
+        strain_metrics: UFL right Cauchy–Green tensors whose largest stretch is
+            the largest strain, or None for FᵀF of the displacement.
+    """
+
+    kinematics: str = "model"
+    robot: RobotMesh
+    gdim: int
+    unknowns: list[fem.Function]
+    tests: list[Any]
+    integrator: TimeIntegrator | BlockIntegrator
+    dx: ufl.Measure
+    quadrature_degree: int
+    mass_density: Any
+    face_offset: float
+    depth: float
+    magnetization: fem.Function
+    bcs: list[fem.DirichletBC]
+    displacement_bcs: list[fem.DirichletBC]
+    free_body: bool
+    strain_metrics: list[Any] | None = None
+
+    @abstractmethod
+    def __init__(
+        self,
+        robot: RobotMesh,
+        material_spec: MaterialSpec,
+        solver: SolverSpec,
+        time: TimeSpec,
+        environment: EnvironmentSpec,
+        body: BodySetup | None = None,
+    ) -> None:
+        """Build the model's spaces, unknowns, integrator and supports on ``robot``."""
+
+    @property
+    def u(self) -> fem.Function:
+        """The displacement unknown u_{n+1} (m)."""
+        return self.unknowns[0]
+
+    @property
+    def arms(self) -> tuple[Arm, ...]:
+        """The robot's arms."""
+        return self.robot.arms
+
+    @property
+    def thickness(self) -> float:
+        """Membrane thickness (m)."""
+        return self.robot.thickness
+
+    @abstractmethod
+    def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
+        """Strain energy at ``state`` (J; J/m for strips), a UFL form."""
+
+    @abstractmethod
+    def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
+        """Hard-magnetic energy −(F M̃)·B_a(x) per unit of the mesh's measure (UFL)."""
+
+    @abstractmethod
+    def inertia(self, accelerations: Sequence[Any]) -> list[ufl.Form]:
+        """Virtual work of the inertia forces, one form per unknown."""
+
+    @abstractmethod
+    def kinetic_energy(self, rates: Sequence[Any]) -> ufl.Form:
+        """Kinetic energy (J; J/m for strips) at the given rates."""
+
+    @abstractmethod
+    def faces(
+        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+    ) -> list[Face]:
+        """The contact faces named by ``surfaces`` (``"all"``, groups or sides) at a state.
+
+        Raises:
+            CaseError: a name the model does not have (key ``contact.surfaces``).
+        """
+
+    def displacement(self, state: Sequence[Any]) -> Any:
+        """Displacement of the mass points (UFL gdim-vector, m): what gravity works on."""
+        return state[0]
+
+    def stage(self) -> tuple[list[Any], list[Any], list[Any]]:
+        """(state, rates, accelerations) at the integrator's stage point."""
+        parts = self.integrator.parts
+        triples = [p.stage() for p in parts]
+        return [s[0] for s in triples], [s[1] for s in triples], [s[2] for s in triples]
+
+    def end_of_step(self) -> tuple[list[Any], list[Any]]:
+        """(state, rates) at t_{n+1} as UFL expressions of the unknowns."""
+        if not self.integrator.dynamic:
+            return list(self.unknowns), [ufl.zero(*ufl.shape(u)) for u in self.unknowns]
+        return list(self.unknowns), [p.velocity() for p in self.integrator.parts]
+
+    def accepted(self) -> tuple[list[Any], list[Any]]:
+        """(state, rates) of the last accepted step t_n as Functions (after ``advance``)."""
+        return list(self.unknowns), [p.v0 for p in self.integrator.parts]
+
+    def residual_form(self, forms: list[Any]) -> Any:
+        """The residual as NewtonSolver takes it: one form, or the list of block forms."""
+        return forms if len(forms) > 1 else forms[0]
+
+
+MODELS: Registry[type[Model]] = Registry("model")
+"""``[mesh] model`` name -> Model class (filled by the model modules)."""

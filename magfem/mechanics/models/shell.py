@@ -1,0 +1,349 @@
+r"""The ``surface`` model: a finite-rotation Reissner–Mindlin (Naghdi) shell.
+
+``[mesh] model = "surface"`` meshes the robot's mid-surface (z = t/2) and the
+mechanics solves for two fields on it: the mid-surface displacement u (P2,
+3 components, m) and two director angles θ (P2, rad). The director, the
+material normal of the deformed shell, is
+
+.. math::
+
+    \mathbf d = R_\alpha\,(\sin\theta_1\cos\theta_0,\ -\sin\theta_0,\
+    \cos\theta_1\cos\theta_0)^T ,
+
+with R_α the rotation about z by the *bending frame* angle α(X): 0 for the
+beam-like robots (arms along ±x: θ₁ bends an arm about y, without limit, so
+the tip can turn past 270°) and the polar angle about the robot's centre for
+radial robots (each arm bends about its own tangential axis). The angles are
+singular only where d lies along the frame's second axis (θ₀ = ±90°: an arm
+twisted by 90° about its own axis), which the robots here never reach.
+
+Strains (reference mid-surface flat, in the xy plane; F₀ = ∂φ/∂(x, y) the
+3×2 surface deformation gradient of φ = X + u, ∇d its 3×2 director gradient):
+
+.. math::
+
+    \mathbf e = \tfrac12(F_0^T F_0 - I),\quad
+    \mathbf k = \tfrac12(F_0^T\nabla\mathbf d + \nabla\mathbf d^T F_0),\quad
+    \boldsymbol\gamma = F_0^T\mathbf d ,
+
+membrane, bending and transverse shear, each zero in the flat rest state.
+Energy per reference area (small strain, large rotation; plane-stress
+isotropic with μ and ν of the case's μ and K, λ̂ = 2ν/(1 − ν)):
+
+.. math::
+
+    \psi = \tfrac t2 \mu\big(\hat\lambda(\mathrm{tr}\,\mathbf e)^2 + 2\,\mathbf e{:}\mathbf e\big)
+         + \tfrac{t^3}{24} \mu\big(\hat\lambda(\mathrm{tr}\,\mathbf k)^2
+           + 2\,\mathbf k{:}\mathbf k\big)
+         + \tfrac56\,\tfrac{\mu t}2\,\boldsymbol\gamma\cdot\boldsymbol\gamma
+         - t\,(F\tilde{\mathbf M})\cdot\mathbf B(\boldsymbol\varphi)
+         - \rho t\,\mathbf g\cdot\mathbf u ,
+
+with F M̃ = F₀ M̃_∥ + M̃_z d (the solid's F M̃ at the mid-surface for a
+director that stays normal). This is the neo-Hookean solid of
+:mod:`magfem.material` to first order in the strain, which stays at a few
+per cent in the scenes (largest strain column of the history); the shell
+model is not for the 50 % strains of the thick, strong-field extremes.
+Kinetic energy ½ρt|u̇|² + ½(ρt³/12)|θ̇|² (the rotary term is exact for
+bending about one axis and negligible, t²/12 against the arm length², but
+gives the angles a mass).
+
+Contact faces: the two faces x± = φ ± (t/2) d (velocity v ± (t/2) ḋ),
+integrated over the mid-surface (``[contact] surfaces``: ``all``, ``bottom``
+(with ``clamp``) or ``top``). Supports: a clamped patch fixes u and θ (the
+bonded face cannot rotate); ``fixed_point`` fixes u.
+
+P2 quadrilaterals with full (3 × 3) quadrature (docs/mechanics.md, "Shell
+model", for the cost against the solid and the element choice).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import basix.ufl
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from magfem import material
+from magfem.config import CaseError
+from magfem.geometry.robot_mesh import RobotMesh
+from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
+from magfem.mechanics.models.base import MODELS, BodySetup, Face, FluxDensity, Model
+from magfem.mechanics.models.supports import (
+    clamped_entities,
+    create_magnetization,
+    fixed_point_dofs,
+    is_free,
+)
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
+
+__all__ = [
+    "SHEAR_CORRECTION",
+    "ShellKinematics",
+    "ShellModel",
+    "director",
+    "director_jacobian",
+    "shell_energy_density",
+]
+
+SHEAR_CORRECTION = 5.0 / 6.0
+"""Transverse shear correction factor of a homogeneous plate (Reissner)."""
+
+
+def director(theta: Any, frame: Any | None = None) -> Any:
+    """Director d(θ) (UFL 3-vector) of the angles θ = (θ₀, θ₁) in the frame rotated by α.
+
+    Args:
+        theta: UFL 2-vector of angles (rad).
+        frame: α (rad, UFL scalar) or None for α = 0.
+    """
+    c0 = ufl.cos(theta[0])
+    d1, d2, d3 = ufl.sin(theta[1]) * c0, -ufl.sin(theta[0]), ufl.cos(theta[1]) * c0
+    if frame is None:
+        return ufl.as_vector([d1, d2, d3])
+    ca, sa = ufl.cos(frame), ufl.sin(frame)
+    return ufl.as_vector([ca * d1 - sa * d2, sa * d1 + ca * d2, d3])
+
+
+def director_jacobian(theta: Any, frame: Any | None = None) -> Any:
+    """∂d/∂θ (UFL 3×2 matrix) of :func:`director`: columns ∂d/∂θ₀ and ∂d/∂θ₁."""
+    s0, c0, s1, c1 = ufl.sin(theta[0]), ufl.cos(theta[0]), ufl.sin(theta[1]), ufl.cos(theta[1])
+    rows = [[-s1 * s0, c1 * c0], [-c0, 0.0], [-c1 * s0, -s1 * c0]]
+    if frame is not None:
+        ca, sa = ufl.cos(frame), ufl.sin(frame)
+        r0, r1 = rows[0], rows[1]
+        rows = [
+            [ca * r0[j] - sa * r1[j] for j in range(2)],
+            [sa * r0[j] + ca * r1[j] for j in range(2)],
+            rows[2],
+        ]
+    return ufl.as_matrix(rows)
+
+
+def _in_plane(grad3: Any) -> Any:
+    """The 3×2 in-plane columns of a 3×3 gradient on the flat (xy) reference surface."""
+    return ufl.as_matrix([[grad3[i, 0], grad3[i, 1]] for i in range(3)])
+
+
+class ShellKinematics:
+    """Strains of the shell at a displacement u and angles θ (UFL expressions).
+
+    Attributes:
+        F0: 3×2 surface deformation gradient. d: director. grad_d: 3×2.
+        membrane, bending, shear: e (2×2), k (2×2, 1/m), γ (2).
+    """
+
+    def __init__(self, u: Any, theta: Any, frame: Any | None):
+        I3 = ufl.Identity(3)
+        self.F0 = _in_plane(I3 + ufl.grad(u))
+        self.d = director(theta, frame)
+        self.grad_d = _in_plane(ufl.grad(self.d))
+        F0, G = self.F0, self.grad_d
+        self.membrane = 0.5 * (F0.T * F0 - ufl.Identity(2))
+        self.bending = 0.5 * (F0.T * G + G.T * F0)
+        self.shear = F0.T * self.d
+
+    def face_metric(self, side: float, thickness: float) -> Any:
+        """2×2 metric (right Cauchy–Green tensor in the plane) of the face at z = side·t/2."""
+        Fs = self.F0 + side * 0.5 * thickness * self.grad_d
+        return Fs.T * Fs
+
+
+def shell_energy_density(
+    kin: ShellKinematics, shear_modulus: Any, poisson: float, thickness: float
+) -> Any:
+    """Elastic energy per reference area (J/m²) of the module's constitutive law."""
+    mu, t = shear_modulus, thickness
+    lam = 2.0 * poisson / (1.0 - poisson)  # λ̂ = λ_s/μ
+
+    def quad(s: Any) -> Any:
+        return mu * (lam * ufl.tr(s) ** 2 + 2.0 * ufl.inner(s, s))
+
+    return (
+        0.5 * t * quad(kin.membrane)
+        + t**3 / 24.0 * quad(kin.bending)
+        + 0.5 * SHEAR_CORRECTION * mu * t * ufl.dot(kin.shear, kin.shear)
+    )
+
+
+def _frame_angle(robot: RobotMesh, center: Sequence[float]) -> Any | None:
+    """α(X): None when every arm runs along ±x, else the polar angle about ``center``."""
+    if all(abs(float(a.direction[1])) < 1e-12 for a in robot.arms):
+        return None
+    X = ufl.SpatialCoordinate(robot.mesh)
+    return ufl.atan2(X[1] - center[1], X[0] - center[0])
+
+
+def _clamp_entities(env: EnvironmentSpec, robot: RobotMesh) -> list[tuple[int, Any]]:
+    """(dim, local entities) fully fixed by ``[environment] clamped`` on the surface mesh.
+
+    A clamped patch of the surface model is tagged on its edges; the cells
+    all of whose edges are clamped are added, so that the patch's interior
+    nodes are held too.
+    """
+    domain = robot.mesh
+    tdim = domain.topology.dim
+    out: list[tuple[int, Any]] = []
+    for dim, entities in clamped_entities(env, robot):
+        out.append((dim, entities))
+        if dim == 1:
+            domain.topology.create_connectivity(tdim, 1)
+            c2e = domain.topology.connectivity(tdim, 1)
+            n_cells = domain.topology.index_map(tdim).size_local
+            edges = domain.topology.index_map(1)
+            held = np.zeros(edges.size_local + edges.num_ghosts, dtype=bool)
+            held[entities] = True
+            per_cell = int(c2e.offsets[1] - c2e.offsets[0])  # one cell type: 3 or 4 edges
+            rows = held[c2e.array[: n_cells * per_cell]].reshape(n_cells, per_cell)
+            out.append((tdim, np.flatnonzero(rows.all(axis=1)).astype(np.int32)))
+    return out
+
+
+_SIDES = {"bottom": -1.0, "clamp": -1.0, "top": 1.0}
+
+
+def _sides(names: Sequence[str]) -> list[float]:
+    """Faces (−1 bottom, +1 top) of ``[contact] surfaces``."""
+    unknown = set(names) - {"all", *_SIDES}
+    if unknown:
+        raise CaseError(
+            "contact.surfaces",
+            list(names),
+            'the shell model has the faces "all", "bottom" (with "clamp") and "top"',
+        )
+    if "all" in names:
+        return [-1.0, 1.0]
+    return [s for s in (-1.0, 1.0) if any(_SIDES.get(n) == s for n in names)]
+
+
+@MODELS.register("surface")
+class ShellModel(Model):
+    """The shell of the module docstring on the robot's mid-surface mesh.
+
+    Args:
+        robot: the surface mesh (tdim 2, gdim 3, at z = t/2).
+        material_spec: ``[material]``.
+        solver: ``[solver]`` (degree, quadrature degree).
+        time: ``[time]`` (scheme, ρ∞, initial step).
+        environment: ``[environment]`` (supports).
+        body: the robot's centre (bending frame of radial robots).
+    """
+
+    kinematics = "shell"
+
+    def __init__(
+        self,
+        robot: RobotMesh,
+        material_spec: MaterialSpec,
+        solver: SolverSpec,
+        time: TimeSpec,
+        environment: EnvironmentSpec,
+        body: BodySetup | None = None,
+    ):
+        body = body or BodySetup()
+        domain = robot.mesh
+        self.robot = robot
+        self.gdim = 3
+        degree = solver.degree
+        self.quadrature_degree = q = solver.quadrature_degree or 2 * degree
+        cell = domain.basix_cell()
+        Vu = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(3,)))
+        Vt = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(2,)))
+        u = fem.Function(Vu, name="displacement")
+        theta = fem.Function(Vt, name="director_angles")
+        self.unknowns = [u, theta]
+        self.tests = [ufl.TestFunction(Vu), ufl.TestFunction(Vt)]
+        parts = [
+            TimeIntegrator(f, time.scheme, rho_inf=time.rho_inf, dt=time.step) for f in (u, theta)
+        ]
+        self.integrator = BlockIntegrator(parts)
+        t = robot.thickness
+        self.poisson = material.poisson_ratio(material_spec.shear_modulus, material_spec.bulk)
+        self.mu = fem.Constant(domain, material_spec.shear_modulus)
+        self.rho = fem.Constant(domain, material_spec.density)
+        self.mass_density = self.rho * t
+        self.rotary_inertia = self.rho * t**3 / 12.0
+        self.magnetization = create_magnetization(material_spec, robot, 3)
+        self.frame = _frame_angle(robot, body.center)
+        self.X = ufl.SpatialCoordinate(domain)
+        self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
+        self.face_offset = 0.5 * t  # the mesh is the mid-surface
+        self.depth = 1.0
+        self.displacement_bcs, angle_bcs = self._supports(environment, Vu, Vt)
+        self.bcs = self.displacement_bcs + angle_bcs
+        self.free_body = is_free(self.displacement_bcs, domain.comm)
+        kin = ShellKinematics(u, theta, self.frame)
+        self.strain_metrics = [kin.face_metric(-1.0, t), kin.face_metric(1.0, t)]
+
+    def _supports(
+        self, env: EnvironmentSpec, Vu: fem.FunctionSpace, Vt: fem.FunctionSpace
+    ) -> tuple[list[fem.DirichletBC], list[fem.DirichletBC]]:
+        domain = self.robot.mesh
+        bcs_u: list[fem.DirichletBC] = []
+        bcs_t: list[fem.DirichletBC] = []
+        for dim, entities in _clamp_entities(env, self.robot):
+            domain.topology.create_connectivity(dim, domain.topology.dim)
+            for V, out in ((Vu, bcs_u), (Vt, bcs_t)):
+                dofs = fem.locate_dofs_topological(V, dim, entities)
+                zero = np.zeros(V.dofmap.index_map_bs, dtype=np.float64)
+                out.append(fem.dirichletbc(zero, dofs, V))
+        if env.fixed_point is not None:
+            bcs_u.append(fem.dirichletbc(np.zeros(3), fixed_point_dofs(env, Vu), Vu))
+        return bcs_u, bcs_t
+
+    # --- energies and forces ----------------------------------------------------------------
+
+    def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
+        kin = ShellKinematics(state[0], state[1], self.frame)
+        return shell_energy_density(kin, self.mu, self.poisson, self.thickness) * self.dx
+
+    def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
+        kin = ShellKinematics(state[0], state[1], self.frame)
+        M = self.magnetization
+        FM = kin.F0 * ufl.as_vector([M[0], M[1]]) + M[2] * kin.d
+        return -self.thickness * ufl.dot(FM, flux(self.X + state[0]))
+
+    def inertia(self, accelerations: Sequence[Any]) -> list[ufl.Form]:
+        w_u, w_t = self.tests
+        return [
+            self.mass_density * ufl.dot(accelerations[0], w_u) * self.dx,
+            self.rotary_inertia * ufl.dot(accelerations[1], w_t) * self.dx,
+        ]
+
+    def kinetic_energy(self, rates: Sequence[Any]) -> ufl.Form:
+        v, w = rates
+        return (
+            0.5
+            * (self.mass_density * ufl.dot(v, v) + self.rotary_inertia * ufl.dot(w, w))
+            * (self.dx)
+        )
+
+    def faces(
+        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+    ) -> list[Face]:
+        disp, angles = state
+        d = director(angles, self.frame)
+        Jd = director_jacobian(angles, self.frame)  # 3×2
+        w_u, w_t = self.tests
+        dx = self.dx
+        out = []
+        for s in _sides(surfaces):
+            h = s * 0.5 * self.thickness
+            lever = h * Jd  # ∂x/∂θ: the face point's virtual displacement is δu + h Jd δθ
+
+            def work(t: Any, lever: Any = lever) -> list[Any]:
+                return [ufl.dot(t, w_u) * dx, ufl.dot(lever.T * t, w_t) * dx]
+
+            out.append(
+                Face(
+                    position=self.X + disp + h * d,  # the reference face is at X + h e_z
+                    velocity=rates[0] + h * Jd * rates[1],
+                    work=work,
+                    measure=dx,
+                    facets=None,
+                )
+            )
+        return out

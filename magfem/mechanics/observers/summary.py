@@ -1,0 +1,159 @@
+"""Summary scalars of a run's history: largest angles per window, midline indicators, speed.
+
+* **Bending speed** 0° → 90° (:func:`bending_speed`): 90° over the time from
+  the last instant the angle was ≤ 0° to the first instant it reaches 90°
+  after it (both linearly interpolated between samples), in rad/s
+  (reported in °/ms).
+* Collapse when an arm's normal tip displacement exceeds 0.2 of its length
+  or its midline has more than one fold; partial bending when the spread of
+  its out-of-plane displacement exceeds 0.1 (:mod:`.arms`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "COLLAPSE_FOLDS",
+    "COLLAPSE_TIP_NORMAL",
+    "PARTIAL_SPREAD",
+    "bending_speed",
+    "history_summary",
+    "max_over_window",
+    "summarize_midline",
+]
+
+COLLAPSE_TIP_NORMAL = 0.2
+"""|w_tip|/L above which an arm has collapsed."""
+COLLAPSE_FOLDS = 1
+"""More folds than this: collapse."""
+PARTIAL_SPREAD = 0.1
+"""std(w)/L above which an arm bends partially."""
+
+
+def bending_speed(
+    times: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    start: float = 0.0,
+    stop: float = math.pi / 2,
+) -> float:
+    """Mean angular speed (rad/s) of the first rise of ``angles`` from ``start`` to ``stop``.
+
+    (stop − start)/(t_stop − t_start): t_stop the first instant the angle
+    reaches ``stop``, t_start the last instant before it at which the angle
+    was ≤ ``start`` (both interpolated linearly between samples). nan when the
+    angle never reaches ``stop`` or was never ≤ ``start`` before.
+
+    Args:
+        times: (N,) s, increasing. angles: (N,) rad (unwrapped).
+    """
+    t = np.asarray(times, dtype=float)
+    th = np.asarray(angles, dtype=float)
+    up = np.nonzero(th >= stop)[0]
+    if up.size == 0 or up[0] == 0:
+        return math.nan
+    j = int(up[0])
+    t_stop = t[j - 1] + (stop - th[j - 1]) * (t[j] - t[j - 1]) / (th[j] - th[j - 1])
+    low = np.nonzero(th[:j] <= start)[0]
+    if low.size == 0:
+        return math.nan
+    i = int(low[-1])
+    if th[i + 1] == th[i]:
+        t_start = t[i]
+    else:
+        t_start = t[i] + (start - th[i]) * (t[i + 1] - t[i]) / (th[i + 1] - th[i])
+    return (stop - start) / (t_stop - t_start) if t_stop > t_start else math.nan
+
+
+def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
+    """Summary entries of the midline and speed observables from a run's history columns.
+
+    Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
+    ``max_folds_<arm>``, ``max_tip_normal_<arm>``, ``max_spread_<arm>``,
+    ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached); and, when
+    any arm has midline columns, ``collapse`` (1.0 if an arm's max tip normal
+    displacement exceeds 0.2 or its folds exceed 1, else 0.0) and
+    ``partial_bending`` (1.0 if an arm's max spread exceeds 0.1).
+    """
+    out: dict[str, float] = {}
+    t = np.asarray(history["time"], dtype=float)
+    collapse = partial = False
+    have = False
+    for key in history:
+        if key.startswith("angle_"):
+            arm = key[len("angle_") :]
+            out[f"bending_speed_{arm}"] = bending_speed(t, history[key])
+        if not key.startswith("active_length_"):
+            continue
+        have = True
+        arm = key[len("active_length_") :]
+        out[f"final_active_length_{arm}"] = float(history[key][-1])
+        folds = float(np.nanmax(history[f"folds_{arm}"]))
+        tip = float(np.nanmax(history[f"tip_normal_{arm}"]))
+        spread = float(np.nanmax(history[f"spread_{arm}"]))
+        out[f"max_folds_{arm}"], out[f"max_tip_normal_{arm}"] = folds, tip
+        out[f"max_spread_{arm}"] = spread
+        collapse |= tip > COLLAPSE_TIP_NORMAL or folds > COLLAPSE_FOLDS
+        partial |= spread > PARTIAL_SPREAD
+    if have:
+        out["collapse"] = float(collapse)
+        out["partial_bending"] = float(partial)
+    return out
+
+
+def history_summary(
+    history: Mapping[str, npt.NDArray[np.float64]], *, start: float, frequency: float | None
+) -> dict[str, float]:
+    """Summary scalars of a run's history columns (the run's own and the sweep's summary).
+
+    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad),
+    ``final_angle_<arm>`` and, for a periodic drive of ``frequency`` (Hz),
+    ``max_angle_{halfperiod,1period,2periods}_<arm>`` over [start, start + n/f]
+    (nan when the run ends before the window does); ``max_strain``,
+    ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
+    (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
+    force; nan if none) and ``max_self_contact_force`` (N); and
+    :func:`summarize_midline`. Columns that are absent give no entry; blank
+    samples (nan) are skipped.
+    """
+    t = np.asarray(history["time"], dtype=float)
+    out: dict[str, float] = {}
+    for key, values in history.items():
+        if not key.startswith("angle_"):
+            continue
+        arm = key[len("angle_") :]
+        out[f"max_angle_{arm}"] = float(np.nanmax(np.abs(values)))
+        out[f"final_angle_{arm}"] = float(values[-1])
+        if frequency:
+            for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
+                end = start + n / frequency
+                covered = t[-1] >= end - 1e-9
+                out[f"max_angle_{label}_{arm}"] = (
+                    max_over_window(t, values, start, end) if covered else math.nan
+                )
+    out |= summarize_midline(history)
+    for column, key in (("strain", "max_strain"), ("bending_strain", "max_bending_strain")):
+        if column in history:
+            out[key] = float(np.nanmax(history[column]))
+    if "self_contact_force" in history:
+        force = np.asarray(history["self_contact_force"], dtype=float)
+        touching = np.flatnonzero(force > 0.0)
+        out["first_self_touch"] = float(t[touching[0]]) if touching.size else math.nan
+        out["max_self_contact_force"] = float(np.nanmax(force))
+    if "energy_density" in history:
+        out["max_energy_density"] = float(np.nanmax(history["energy_density"]))
+        if frequency:
+            out["power_density"] = frequency * out["max_energy_density"]
+    return out
+
+
+def max_over_window(
+    times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], t0: float, t1: float
+) -> float:
+    """max |value| over t0 <= t <= t1 (nan when no sample lies there)."""
+    mask = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
+    return float(np.nanmax(np.abs(values[mask]))) if np.any(mask) else float("nan")

@@ -1,0 +1,142 @@
+"""Step control of the time loop: step lengths, switching instants, cuts and growth.
+
+* Steps land exactly on the loads' switching instants (a square wave's
+  switches, ``breakpoints``) and on the end time: a step that would cross
+  one is shortened to end on it (and one within 5 % past it is stretched).
+  Loads are evaluated at the stage time t_{n+1−αf}, strictly inside the
+  step, so a step sees one side of a switch only.
+* A failed Newton solve cuts the step by ``cut_factor`` and retries, at
+  most ``max_cuts`` times in a row and never below ``min_step``; then
+  :class:`SimulationError` is raised.
+* A slow solve (>= ``slow_iterations``) cuts the next step; two easy solves
+  in a row (<= ``easy_iterations``) grow it by ``grow_factor`` up to
+  ``max_step``. Every change is reported through ``say``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from magfem.mechanics.solver import NewtonReport
+from magfem.mechanics.spec import TimeSpec
+
+__all__ = ["SimulationError", "StepController", "stop_reason"]
+
+
+class SimulationError(RuntimeError):
+    """The time loop could not continue (Newton failed at the smallest step)."""
+
+
+Breakpoints = Callable[[float, float], npt.NDArray[np.float64]]
+"""(t0, t1) -> switching instants in (t0, t1] (s), sorted."""
+
+
+def stop_reason(spec: TimeSpec, cuts: int, next_dt: float) -> str:
+    """Why a failed step ends the run ("" if the step may be cut and retried)."""
+    if not spec.adaptive:
+        return "time.adaptive is off"
+    if cuts > spec.max_cuts:
+        return f"more than time.max_cuts = {spec.max_cuts} cuts in a row"
+    if next_dt < spec.smallest_step:
+        return f"the next step would be below time.min_step = {spec.smallest_step:.3g} s"
+    return ""
+
+
+class StepController:
+    """Chooses the step lengths of a run (module docstring).
+
+    Args:
+        spec: the ``[time]`` table.
+        breakpoints: switching instants of the loads.
+        say: reports a step-control event (one line).
+
+    Attributes:
+        dt: the nominal length of the next step (s).
+        steps, cuts, newton_iterations: totals over the run.
+    """
+
+    def __init__(self, spec: TimeSpec, breakpoints: Breakpoints, say: Callable[[str], None]):
+        self.spec = spec
+        self.breakpoints = breakpoints
+        self.say = say
+        self.dt = spec.step
+        self.steps = 0
+        self.cuts = 0
+        self.newton_iterations = 0
+        self._easy = 0
+
+    def next_step(self, t: float) -> tuple[float, bool]:
+        """Length of the next step from t and whether it lands on a switching instant."""
+        end = self.spec.end
+        dt = min(self.dt, end - t)
+        stop = t + dt
+        ahead = self.breakpoints(t, min(t + 1.05 * dt, end))
+        ahead = ahead[ahead > t + 1e-9 * dt]
+        if ahead.size:
+            return float(ahead[0] - t), True
+        if end - stop < 0.05 * dt:
+            return end - t, False
+        return dt, False
+
+    def cut(self, t: float, dt: float, cuts: int, report: NewtonReport) -> float:
+        """The step after the ``cuts``-th failure in a row of a step of length dt at t.
+
+        Raises:
+            SimulationError: the step may not be cut again (``stop_reason``).
+        """
+        self.cuts += 1
+        new_dt = dt * self.spec.cut_factor
+        why = stop_reason(self.spec, cuts, new_dt)
+        if why:
+            raise SimulationError(
+                f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
+                f"{report.iterations} it, ‖R‖ = {report.residual_norm:.3g}) "
+                f"at dt = {dt:.3g} s after {cuts} cut(s): {why}"
+            )
+        self.say(
+            f"t = {t:.6g} s: Newton failed ({report.reason_name}, "
+            f"{report.iterations} it); step cut {dt:.3g} -> {new_dt:.3g} s"
+        )
+        self.dt = new_dt
+        return new_dt
+
+    def land(self, t: float, dt: float, on_break: bool) -> float:
+        """The end time of an accepted step of length dt from t (exact switch or end time)."""
+        t_new = t + dt
+        if on_break:
+            t_new = float(self.breakpoints(t, t + 1.01 * dt)[0])
+        if abs(self.spec.end - t_new) < 1e-9 * dt:
+            t_new = self.spec.end
+        return t_new
+
+    def accepted(self, t: float, report: NewtonReport, cuts: int) -> None:
+        """Count an accepted step ending at t and adapt the next step to its Newton cost."""
+        spec = self.spec
+        self.steps += 1
+        self.newton_iterations += report.iterations
+        if spec.adaptive and report.iterations >= spec.slow_iterations:
+            new_dt = max(self.dt * spec.cut_factor, spec.smallest_step)
+            self.say(
+                f"t = {t:.6g} s: slow Newton ({report.iterations} it); "
+                f"next step {self.dt:.3g} -> {new_dt:.3g} s"
+            )
+            self.dt = new_dt
+        easy = report.iterations <= spec.easy_iterations and cuts == 0
+        self._easy = self._easy + 1 if easy else 0
+        if self._easy >= 2 and spec.adaptive and self.dt < spec.largest_step:
+            new_dt = min(self.dt * spec.grow_factor, spec.largest_step)
+            self.say(f"t = {t:.6g} s: easy steps; step grown {self.dt:.3g} -> {new_dt:.3g} s")
+            self.dt = new_dt
+            self._easy = 0
+
+    def summary(self) -> dict[str, float]:
+        """Step counts of the run."""
+        return {
+            "steps": float(self.steps),
+            "newton_iterations": float(self.newton_iterations),
+            "mean_newton_iterations": self.newton_iterations / max(self.steps, 1),
+            "cuts": float(self.cuts),
+        }

@@ -1,0 +1,221 @@
+"""From a case to a run: the only place that reads a whole :class:`~magfem.case.Case`.
+
+Each stage takes its own tables: the robot mesh from ``[robot]`` and
+``[mesh]`` (:mod:`magfem.geometry`), the field model from ``[field]``
+(:mod:`magfem.field`), the model from ``[material]``, ``[solver]``,
+``[time]`` and ``[environment]``, its loads (the field, gravity,
+``[[loads]]``), its contacts (``[contact]``, ``[[contacts]]``), the observers
+and the writers of ``[output]`` (:mod:`magfem.mechanics`). The parts are
+composed declaratively into a :class:`~magfem.mechanics.simulation.Simulation`.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from magfem.case import Case
+from magfem.field.model import FieldModel, create_field_model
+from magfem.field.spec import FieldSpec
+from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
+from magfem.geometry.robots import outline_of
+from magfem.mechanics.animation import MotionSnapshots
+from magfem.mechanics.contacts import Contact, GroundContact, SelfContact
+from magfem.mechanics.loads import GravityLoad, Load, MagneticLoad
+from magfem.mechanics.models import MODELS, BodySetup, Model
+from magfem.mechanics.observers import (
+    AppliedField,
+    ArmAngles,
+    Energies,
+    Midline,
+    Observer,
+    Strain,
+    StrainProbe,
+    bonded_length,
+)
+from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
+from magfem.mechanics.problem import build_problem
+from magfem.mechanics.simulation import Simulation, SimulationResult
+
+__all__ = ["build_simulation", "create_writers", "drive_frequency", "simulate"]
+
+
+def drive_frequency(spec: FieldSpec) -> float | None:
+    """Frequency (Hz) of the first periodic field source, or None."""
+    for src in spec.sources:
+        frequency = getattr(src.waveform, "frequency", None)
+        if frequency:
+            return float(frequency)
+    return None
+
+
+def build_simulation(
+    case: Case,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    robot_mesh: RobotMesh | None = None,
+    field_model: FieldModel | None = None,
+) -> Simulation:
+    """The simulation of ``case`` (collective): mesh, field, model, loads, contacts, observers.
+
+    Args:
+        robot_mesh: a prebuilt mesh (default: the case's).
+        field_model: a prebuilt field model (default: the case's).
+
+    Raises:
+        magfem.config.CaseError: the case cannot be simulated (groups, model refusals).
+    """
+    t0 = time.perf_counter()
+    if robot_mesh is None:
+        robot_mesh = create_robot_mesh(case.robot, case.mesh, comm)
+    if field_model is None:
+        field_model = create_field_model(case.field, comm)
+    setup_time = time.perf_counter() - t0
+    depth = case.robot.uniform_width or 1.0
+    body = BodySetup(depth=depth, center=tuple(case.robot.position))  # type: ignore[arg-type]
+    model_class = MODELS.get(case.mesh.model, "mesh.model")
+    model = model_class(robot_mesh, case.material, case.solver, case.time, case.environment, body)
+    loads: list[Load] = [
+        MagneticLoad(field_model, model),
+        GravityLoad(case.environment.gravity, model),
+        *(spec.build(model) for spec in case.loads),
+    ]
+    problem = build_problem(model, loads, _contacts(case, model))
+    t1 = time.perf_counter()
+    observers = _observers(case, model, problem.energy_forms, field_model)
+    return Simulation(
+        problem,
+        case.time,
+        case.solver,
+        observers=observers,
+        frequency=drive_frequency(case.field),
+        name=case.name,
+        setup_time=setup_time,
+        compile_time=time.perf_counter() - t1,
+    )
+
+
+def _contacts(case: Case, model: Model) -> list[Contact]:
+    mat = case.material
+    contacts: list[Contact] = []
+    if case.contact.ground:
+        contacts.append(
+            GroundContact(case.contact, model, shear_modulus=mat.shear_modulus, density=mat.density)
+        )
+    if case.contact.self_contact:
+        contacts.append(SelfContact(case.contact, model, shear_modulus=mat.shear_modulus))
+    contacts += [spec.build(model, mat) for spec in case.contacts]
+    return contacts
+
+
+def _observers(
+    case: Case, model: Model, energy_forms: dict, field_model: FieldModel
+) -> list[Observer]:
+    arms = model.arms
+    observers: list[Observer] = []
+    if arms:
+        observers.append(ArmAngles(model.u, arms))
+        observers.append(Midline(model.u, arms, model.thickness, _bonded_lengths(case, model)))
+    probe = StrainProbe(
+        model.u,
+        _support_points(model),
+        radius=model.thickness * (1 + 1e-6),
+        metrics=model.strain_metrics,
+    )
+    observers.append(Strain(probe, case.material.shear_modulus))
+    observers.append(Energies(energy_forms, model.robot.mesh.comm, model.depth))
+    observers.append(AppliedField(field_model, _field_point(model)))
+    return observers
+
+
+def _bonded_lengths(case: Case, model: Model) -> dict[str, float]:
+    """Arm name -> midline length over the bonded patch (m); {} when the clamp is free."""
+    if "clamp" not in case.environment.clamped or "clamp" not in model.robot.groups:
+        return {}
+    outline = outline_of(case.robot)
+    px, py, pz = case.robot.position
+    offset = (px, py) if model.gdim == 3 else (px, pz)
+    return {
+        arm.name: bonded_length(arm, outline.in_clamp, offset, model.gdim) for arm in model.arms
+    }
+
+
+def _support_points(model: Model) -> npt.NDArray[np.float64]:
+    """Reference coordinates (N, 3) of the held displacement dofs, from every rank (m)."""
+    V = model.u.function_space
+    coords = V.tabulate_dof_coordinates()
+    bs = V.dofmap.index_map_bs
+    nodes = [np.zeros(0, dtype=np.int64)]
+    for bc in model.displacement_bcs:
+        dofs, owned = bc.dof_indices()
+        nodes.append(np.asarray(dofs[:owned]) // bs)
+    mine = coords[np.unique(np.concatenate(nodes))]
+    return np.vstack(model.robot.mesh.comm.allgather(mine))
+
+
+def _field_point(model: Model) -> npt.NDArray[np.float64]:
+    """Where the history samples the applied field: the first arm's root (3D, m)."""
+    if not model.arms:
+        return np.zeros(3)
+    root = np.asarray(model.arms[0].root, dtype=float)
+    return root if model.gdim == 3 else np.array([root[0], 0.0, root[1]])
+
+
+def create_writers(
+    case: Case, sim: Simulation, outdir: Path
+) -> tuple[list[Writer], dict[str, Path]]:
+    """The writers of ``[output]`` into ``outdir`` (collective) and the paths they write."""
+    out, comm = case.output, sim.comm
+    writers: list[Writer] = []
+    paths: dict[str, Path] = {}
+    if out.csv:
+        paths["csv"] = outdir / "history.csv"
+        writers.append(CsvWriter(paths["csv"], sim.columns(), comm))
+    if out.vtx_every > 0:
+        paths["vtx"] = outdir / "displacement.bp"
+        writers.append(VtxWriter(paths["vtx"], [sim.u], comm, out.vtx_every))
+    if out.animation:
+        paths["gif"] = outdir / "motion.gif"
+        snapshots = MotionSnapshots(
+            outdir / "snapshots",
+            sim.u,
+            comm,
+            frames=out.animation_frames,
+            start=case.time.start,
+            end=case.time.end,
+        )
+        writers.append(MotionWriter(paths["gif"], snapshots, comm, case.name))
+    if out.plot:
+        paths["png"] = outdir / "angle.png"
+        writers.append(
+            AnglePlotWriter(paths["png"], [a.name for a in sim.model.arms], comm, case.name)
+        )
+    return writers, paths
+
+
+def simulate(
+    case: Case, outdir: Path, comm: MPI.Comm = MPI.COMM_WORLD, *, progress: bool = True
+) -> SimulationResult:
+    """Run ``case`` and write its outputs to ``outdir`` (collective).
+
+    Returns:
+        the :class:`SimulationResult` (history arrays on every rank, written paths).
+
+    Raises:
+        magfem.config.CaseError: the case cannot be simulated.
+        magfem.mechanics.stepping.SimulationError: Newton failed at the smallest
+            step (the outputs so far are kept).
+    """
+    sim = build_simulation(case, comm)
+    outdir = Path(outdir)
+    if comm.rank == 0:
+        outdir.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    writers, paths = create_writers(case, sim, outdir)
+    result = sim.run(writers, progress=progress)
+    result.paths = paths
+    return result
