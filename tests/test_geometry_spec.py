@@ -7,6 +7,7 @@ back to an equal case), and the keys each shape class declares.
 from __future__ import annotations
 
 import dataclasses
+import pickle
 
 import pytest
 from mpi4py import MPI
@@ -110,6 +111,7 @@ def test_shape_keys_read_through_the_spec():
     with pytest.raises(AttributeError, match="shape 'star' has no key 'width'"):
         star.width  # noqa: B018
     assert robot("failure_triangle", type="II").length == pytest.approx(16e-3)
+    assert pickle.loads(pickle.dumps(r)) == r  # the fall-through must not break pickling
 
 
 def test_strip_shapes_are_the_uniform_width_ones():
