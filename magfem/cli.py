@@ -1,7 +1,7 @@
 """The ``magfem`` command line.
 
     magfem check CASE [--set KEY=VALUE ...]     validate a case, print its summary
-    magfem mesh  CASE [--out DIR]               build the robot mesh, write DIR/<name>.msh
+    magfem mesh  CASE [--out DIR] [--format F]  build the robot mesh, write DIR/<name>.msh (.vtu)
     magfem field CASE [--out DIR]               solve the applied field, write VTX/CSV/PNG
     magfem run   CASE [--out DIR]               mesh + field + dynamics, write all outputs
     magfem sweep CASE --param NAME=VALUES ...   parameter sweep, resumable (magfem.sweep)
@@ -80,6 +80,11 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     )
     _say(comm, "groups    " + ", ".join(sorted(rm.groups)))
     _say(comm, f"wrote     {msh}")
+    if args.format != "msh":
+        from magfem.geometry.export import export_robot_mesh
+
+        path = export_robot_mesh(msh, args.format, comm, strip=rm.model == "strip")
+        _say(comm, f"wrote     {path}")
     return 0
 
 
@@ -188,6 +193,14 @@ def _parser() -> argparse.ArgumentParser:
             s.add_argument("--out", help="output directory (default output/<case name>)")
         if name == "run":
             s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+        if name == "mesh":
+            s.add_argument(
+                "--format",
+                choices=("msh", "vtu", "vtk"),
+                default="msh",
+                help="also write the mesh with its groups as VTK (vtu, vtk) for ParaView "
+                "and other tools (default: only the gmsh .msh)",
+            )
     text = "run a case over a grid of parameter values in parallel processes (resumable)"
     s = sub.add_parser("sweep", help=text, description=text)
     s.add_argument("case", help="base case file (TOML)")

@@ -14,7 +14,8 @@ quantities), ``tuple[str, ...]``, a nested dataclass (sub-table), a tuple of
 dataclasses (array of tables), ``dict[str, ...]`` (free mapping such as PETSc
 options) and ``X | None`` for optional values. A dataclass may define a
 classmethod ``__from_table__(table, where)`` to take over its own parsing
-(used for tables whose keys depend on a discriminator such as ``shape``).
+(used for tables whose keys depend on a discriminator such as ``shape``),
+and a method ``__to_table__()`` for the inverse.
 """
 
 from __future__ import annotations
@@ -272,7 +273,14 @@ def build_fields[T](cls: type[T], table: Mapping[str, Any], where: str, **fixed:
 
 
 def to_table(obj: Any) -> Any:
-    """Inverse of :func:`from_table`: plain TOML-serialisable data (SI numbers)."""
+    """Inverse of :func:`from_table`: plain TOML-serialisable data (SI numbers).
+
+    A dataclass whose table is not its fields (e.g. ``[robot]``, flat keys of
+    a nested shape object) writes it with a ``__to_table__()`` method.
+    """
+    hook = getattr(obj, "__to_table__", None)
+    if hook is not None and not isinstance(obj, type):
+        return hook()
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         # a table whose allowed keys depend on a discriminator (e.g. a waveform's
         # kind) lists the keys that apply via ``table_keys()``

@@ -21,7 +21,13 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
+import pyvista
+from dolfinx import plot
 from mpi4py import MPI
+
+from magfem.config import from_table
+from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
+from magfem.geometry.spec import SHAPES, MeshSpec, RobotSpec
 
 __all__ = ["MeshItem", "plot_mesh_groups", "plot_robot", "plot_scene", "robot_grid", "source_grids"]
 
@@ -43,16 +49,13 @@ class MeshItem(NamedTuple):
     show_edges: bool = True
 
 
-def robot_grid(robot_mesh: Any, comm: MPI.Comm | None = None) -> Any:
+def robot_grid(robot_mesh: RobotMesh, comm: MPI.Comm | None = None) -> Any:
     """The robot mesh as one pyvista grid on rank 0 (``None`` elsewhere); collective.
 
     Cell data ``"group"`` holds the index of each cell's group in
     ``grid.field_data["groups"]`` (sorted cell-group names). Strip meshes
     (gdim 2, coordinates (x, z)) are drawn in the x–z plane.
     """
-    import pyvista
-    from dolfinx import plot
-
     comm = robot_mesh.mesh.comm if comm is None else comm
     msh = robot_mesh.mesh
     tdim = msh.topology.dim
@@ -106,8 +109,6 @@ def plot_mesh_groups(
     """
     if comm.rank != 0:
         return None
-    import pyvista
-
     pyvista.OFF_SCREEN = True
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -149,7 +150,7 @@ def plot_mesh_groups(
 
 
 def plot_robot(
-    robot: Any,
+    robot: RobotMesh | RobotSpec,
     path: Path | str,
     *,
     title: str | None = None,
@@ -167,13 +168,9 @@ def plot_robot(
         title: text in the top-left corner (default: the shape or model).
         view: ``"iso"``, ``"xy"`` or ``"xz"``.
     """
-    from magfem.geometry.spec import MeshSpec, RobotSpec
-
     if isinstance(robot, RobotSpec):
         grid = None
         if comm.rank == 0:
-            from magfem.geometry.robot_mesh import create_robot_mesh
-
             rm = create_robot_mesh(robot, MeshSpec(size=robot.min_feature / 4), MPI.COMM_SELF)
             grid = robot_grid(rm, MPI.COMM_SELF)
         title = robot.shape if title is None else title
@@ -286,9 +283,6 @@ def _scene_case() -> Any:
 
 def _gallery(outdir: Path) -> None:
     """Write robots_<shape>.png for every shape with default dimensions (rank 0)."""
-    from magfem.config import from_table
-    from magfem.geometry.spec import SHAPES, RobotSpec
-
     for shape in SHAPES:
         spec = from_table(RobotSpec, {"shape": shape, "thickness": "100 um"}, "robot")
         out = plot_robot(spec, outdir / f"robots_{shape}.png", title=f"{shape} (defaults)")

@@ -13,6 +13,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import gmsh
+from dolfinx import graph
+from dolfinx import mesh as dmesh
+from dolfinx.io import gmsh as gmshio
 from mpi4py import MPI
 
 __all__ = ["GmshError", "build_mesh"]
@@ -48,11 +52,6 @@ def build_mesh(
     Raises:
         GmshError: on every rank, if the builder or gmsh failed on rank 0.
     """
-    import gmsh
-    from dolfinx import graph
-    from dolfinx import mesh as dmesh
-    from dolfinx.io import gmsh as gmshio
-
     error: str | None = None
     if comm.rank == 0:
         initialized_here = not gmsh.isInitialized()
