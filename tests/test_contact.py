@@ -25,8 +25,8 @@ from magfem.mechanics.contact import (
     create_ground_contact_law,
     critical_contact_damping,
     ground_contact_work,
+    penalty_penetration,
 )
-from magfem.mechanics.reference import penalty_penetration
 
 LX, LY, H = 2e-3, 1e-3, 1e-4  # box (m)
 AREA = LX * LY

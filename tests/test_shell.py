@@ -22,8 +22,8 @@ from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
 from magfem.mechanics import MembraneSimulation
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
+from verification import references as ref
+from verification import setups as vc
 
 BASE: dict[str, Any] = copy.deepcopy(STRIP_BASE) | {
     "name": "shell",
