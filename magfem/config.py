@@ -33,6 +33,7 @@ __all__ = [
     "CaseError",
     "build_fields",
     "check_keys",
+    "flag",
     "from_table",
     "integer",
     "option",
@@ -122,6 +123,11 @@ def option(
 ) -> Any:
     """A string field restricted to ``choices`` (or free when None)."""
     return dataclasses.field(default=default, metadata={"choices": choices, "doc": doc})
+
+
+def flag(default: Any = _MISSING, *, doc: str = "") -> Any:
+    """A boolean field (``true``/``false`` in TOML)."""
+    return dataclasses.field(default=default, metadata={"doc": doc})
 
 
 def check_keys(table: Mapping[str, Any], allowed: typing.Iterable[str], where: str) -> None:

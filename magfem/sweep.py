@@ -37,7 +37,8 @@ SI, status, wall time, and the point's summary scalars) and
 first parameter, one line per combination of the others).
 
 Summary scalars, computed from each run's ``history.csv`` (definitions in
-DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_halfperiod_<arm>``,
+docs/physics.md, "Observables"): per arm ``max_angle_<arm>`` (max |θ|, rad),
+``max_angle_halfperiod_<arm>``,
 ``max_angle_1period_<arm>`` and ``max_angle_2periods_<arm>`` (max |θ| over
 [t₀, t₀ + n/f], n = 1/2, 1, 2, f the first periodic source's frequency: the
 first half period is the lift under the first field sign, before any reversal),
@@ -74,8 +75,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
+from magfem.case import load_case
 from magfem.config import CaseError
+from magfem.mechanics.observers import history_summary
 
 __all__ = [
     "Point",
@@ -230,8 +234,6 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     t = cols["time"]
     t0 = float(resolved.get("time", {}).get("start", t[0]))
     freq = _frequency(resolved)
-    from magfem.mechanics.observers import history_summary
-
     out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
     out |= history_summary(cols, start=t0, frequency=freq)
     return out
@@ -316,8 +318,6 @@ def run_sweep(
         CaseError: bad ``--param`` syntax, or a point whose case does not validate
             (checked for every point before anything runs).
     """
-    from magfem.case import load_case
-
     case_path = Path(case_path)
     if jobs < 1:
         raise CaseError("--jobs", jobs, "must be >= 1")
@@ -458,11 +458,6 @@ def plot_sweep(
 ) -> Path | None:
     """Max angle over one and two periods (deg) against the first parameter (PNG): one
     line per combination of the other parameters, or a single line when ``paired``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     done = [r for r in records if r.get("summary")]
     keys = sorted(
         {k for r in done for k in r["summary"] if k.startswith("max_angle_")},
@@ -475,7 +470,8 @@ def plot_sweep(
     groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for r in done:
         groups.setdefault(tuple(r["params"][n] for n in others), []).append(r)
-    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    fig = Figure(figsize=(7, 4), dpi=110)
+    ax = fig.subplots()
     # a non-numeric first parameter (robot.type, mesh.model) is plotted as categories
     categories = list(dict.fromkeys(r["params"][x_name] for r in done))
     numeric = not all(math.isnan(r["si"][x_name]) for r in done)
@@ -504,5 +500,4 @@ def plot_sweep(
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return path
