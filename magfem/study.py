@@ -25,6 +25,7 @@ Validation is that of case files: any problem raises
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import tomllib
 from dataclasses import dataclass
@@ -109,9 +110,10 @@ class Study:
             if not _SET.match(text):
                 raise CaseError(f"sets[{i}]", text, "expected KEY=VALUE, e.g. time.end=20ms")
 
-    def table_keys(self) -> tuple[str, ...]:
+    @classmethod
+    def table_keys(cls) -> tuple[str, ...]:
         """The study file's keys (what :func:`magfem.config.to_table` writes): all but the id."""
-        return tuple(k for k in self.__dataclass_fields__ if k != "ident")
+        return tuple(f.name for f in dataclasses.fields(cls) if f.name != "ident")
 
 
 def parse_study(data: dict[str, Any], ident: str) -> Study:
