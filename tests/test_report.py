@@ -88,3 +88,24 @@ def test_report_with_a_bad_study_file_exits_2_with_one_line(tmp_path, monkeypatc
     assert code == 2
     assert len(lines) == 1, lines
     assert lines[0].startswith("magfem: error: cases/studies/bad.toml: repeat = 2: unknown key")
+
+
+@pytest.mark.serial  # each run is its own process; the driver is serial
+def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monkeypatch):
+    """``run=True`` sweeps the selected study (1 ms of the self-clean strip at the tests'
+    0.5 mm, ~5 s) and tabulates the run's history; reading again gives the same row."""
+    monkeypatch.chdir(repo)
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "probe.toml").write_text(
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "the angle"\n'
+        'params = ["time.end=1ms"]\ncolumns = ["max_strain"]\nsets = ["mesh.size=0.5mm", '
+        '"output.vtx_every=0", "output.plot=false", "output.animation=false"]\n',
+        encoding="utf-8",
+    )
+    kwargs = {"docs": tmp_path / "docs", "studies": tmp_path / "studies", "echo": None}
+    page = build_report(tmp_path / "out", run=True, only=["probe"], **kwargs).read_text()
+    assert "| [probe](#probe) | predicted | 1/1 |" in page
+    row = next(line for line in page.splitlines() if line.startswith("| 1ms | done |"))
+    assert row.endswith("| 0.001 |")  # end_time: the run reached its end, 1 ms
+    again = build_report(tmp_path / "out", **kwargs).read_text()  # read only: same table
+    assert row in again
