@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmark scripts (imported as ``_common`` from their folder)."""
+"""Helpers shared by the benchmark scripts (run as ``python -m benchmarks.<name>``)."""
 
 from __future__ import annotations
 

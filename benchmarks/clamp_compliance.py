@@ -13,10 +13,10 @@ length-like effect; the finest levels say what it converges to.
 
 Plane strain is the side view of a wide arm (the robots' arms are 10-50 t
 wide), plane stress that of a narrow one (the strip's incompressible-limit
-law, bending modulus 3μ).
+law, bending modulus 3μ). From the repository root:
 
-    .venv/bin/python benchmarks/clamp_compliance.py              # 3 levels per plane (~1.5 min)
-    .venv/bin/python benchmarks/clamp_compliance.py --finest     # + 16 layers (~6 min more)
+    .venv/bin/python -m benchmarks.clamp_compliance              # 3 levels per plane (~1.5 min)
+    .venv/bin/python -m benchmarks.clamp_compliance --finest     # + 16 layers (~6 min more)
 """
 
 from __future__ import annotations
@@ -25,13 +25,13 @@ import argparse
 import time
 
 import numpy as np
-from _common import Report
 from mpi4py import MPI
 
 import magfem  # noqa: F401
+from benchmarks._common import Report
 from magfem import material
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
-from magfem.mechanics import verification as vc
+from verification import setups as vc
 
 MU, H = vc.SHEAR_MODULUS, vc.THICKNESS
 

@@ -16,11 +16,11 @@ time step can be compared: the contact at the generalized-α stage point
 :class:`magfem.mechanics.contacts.ground.ImpactAbsorber`. Reported: rebound speed
 (mean vertical velocity 1 ms after the drop, m/s, positive = up), mean
 height of the mid-plane above its resting position, Newton iterations per
-step, step cuts, wall time.
+step, step cuts, wall time. From the repository root:
 
-    .venv/bin/python benchmarks/contact_convergence.py
+    .venv/bin/python -m benchmarks.contact_convergence
 
-Part 1's cases and runs are those of the tests, from :mod:`magfem.mechanics.verification`.
+Part 1's cases and runs are those of the tests, from :mod:`verification.setups`.
 """
 
 from __future__ import annotations
@@ -35,13 +35,11 @@ from typing import Any
 
 import numpy as np
 import ufl
-from _common import Report
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
+from benchmarks._common import Report
 from magfem import material
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
 from magfem.mechanics.contacts.ground import GroundPlane, ImpactAbsorber
 from magfem.mechanics.contacts.penalty import (
     PenaltyLaw,
@@ -51,6 +49,8 @@ from magfem.mechanics.contacts.penalty import (
 from magfem.mechanics.integrator import TimeIntegrator
 from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import SolverSpec
+from verification import references as ref
+from verification import setups as vc
 
 MU_F, G, V0 = vc.FRICTION, vc.GRAVITY, vc.SLIDE_SPEED
 

@@ -1,4 +1,4 @@
-"""Speed of the dynamic solver on the default case (issue 4): assembly and whole runs.
+"""Speed of the dynamic solver on the default case: assembly and whole runs.
 
 Two parts, both on ``cases/one_arm_trapezoid.toml`` (3D P2 hexahedra, 1 mm,
 one layer, 1647 dofs), CPU time (``time.process_time``, robust against a
@@ -13,10 +13,12 @@ loaded machine) next to wall time:
   steps, mean Newton iterations, cuts, maximum and final tip angle (deg),
   and the wall-time split of :meth:`Simulation.timings`.
 
-    .venv/bin/python benchmarks/dynamics_speed.py assembly
-    .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01 --save /tmp/a.npy
-    .venv/bin/python benchmarks/dynamics_speed.py compare /tmp/ref.npy /tmp/a.npy
-    .venv/bin/mpirun -n 2 .venv/bin/python benchmarks/dynamics_speed.py run --set time.end=0.01
+From the repository root::
+
+    .venv/bin/python -m benchmarks.dynamics_speed assembly
+    .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=0.01 --save /tmp/a.npy
+    .venv/bin/python -m benchmarks.dynamics_speed compare /tmp/ref.npy /tmp/a.npy
+    .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=0.01
 """
 
 from __future__ import annotations

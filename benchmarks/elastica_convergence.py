@@ -17,14 +17,14 @@ contraction the rigid face forbids is a ν² = 1.6 % effect. Plane-strain strip
 (0.1, 0.2 mT), with the discretisation part of the 3D error (vs the finest level).
 
 Part 2, first bending frequency after a modal push (the set-up of
-tests/test_verification_frequency.py), ρ∞ = 1, Δt = T/80.
+tests/test_verification_frequency.py), ρ∞ = 1, Δt = T/80. From the repository root:
 
-    .venv/bin/python benchmarks/elastica_convergence.py            # everything (~10 min)
-    .venv/bin/python benchmarks/elastica_convergence.py --quick    # strips only
-    .venv/bin/python benchmarks/elastica_convergence.py --rigid    # part 1b only (~5 min)
+    .venv/bin/python -m benchmarks.elastica_convergence            # everything (~10 min)
+    .venv/bin/python -m benchmarks.elastica_convergence --quick    # strips only
+    .venv/bin/python -m benchmarks.elastica_convergence --rigid    # part 1b only (~5 min)
 
 The cases, runs and reference observables are those of the tests, from
-:mod:`magfem.mechanics.verification`.
+:mod:`verification.setups`.
 """
 
 from __future__ import annotations
@@ -34,14 +34,14 @@ import time
 from typing import Any
 
 import numpy as np
-from _common import Report
 from mpi4py import MPI
 
 import magfem  # noqa: F401
+from benchmarks._common import Report
 from magfem import material
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
+from verification import references as ref
+from verification import setups as vc
 
 MU, RHO, H, FREE = vc.SHEAR_MODULUS, vc.DENSITY, vc.THICKNESS, vc.FREE_LENGTH
 

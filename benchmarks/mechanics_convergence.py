@@ -13,10 +13,10 @@ whose converged reference is the finest 3D run. ``--model surface`` runs the
 grid with the shell model (:mod:`magfem.mechanics.models.shell`) instead of the
 solid; with ``--reference`` it is compared with a saved solid run.
 
-Run on 2 cores (timings vary ~30 % between identical runs)::
+Run from the repository root, on 2 cores (timings vary ~30 % between identical runs)::
 
-    .venv/bin/mpirun -n 2 .venv/bin/python benchmarks/mechanics_convergence.py
-    .venv/bin/python benchmarks/mechanics_convergence.py --window 0.005 --sizes 2e-3 1e-3 \\
+    .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.mechanics_convergence
+    .venv/bin/python -m benchmarks.mechanics_convergence --window 0.005 --sizes 2e-3 1e-3 \\
         --steps 1e-3 5e-4      # quick look
 
 ``--set KEY=VALUE ...`` passes case overrides to every run (e.g.

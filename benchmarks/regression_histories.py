@@ -4,11 +4,11 @@ A refactor must leave every number where it was. This script runs a fixed
 set of short runs that together touch every model and load of magfem (3D
 solid with ground contact and friction, the shell, a 2D strip, self-contact,
 a radial robot, the quasi-static scheme) and either saves their histories or
-compares them with saved ones column by column.
+compares them with saved ones column by column. From the repository root:
 
-    .venv/bin/python benchmarks/regression_histories.py save DIR
-    .venv/bin/python benchmarks/regression_histories.py compare DIR [--rtol 1e-9]
-    .venv/bin/python benchmarks/regression_histories.py compare DIR --only default_solid
+    .venv/bin/python -m benchmarks.regression_histories save DIR
+    .venv/bin/python -m benchmarks.regression_histories compare DIR [--rtol 1e-9]
+    .venv/bin/python -m benchmarks.regression_histories compare DIR --only default_solid
 
 ``compare`` prints, per run, the largest difference of each column relative
 to the column's largest magnitude, and exits 1 if any exceeds ``--rtol``.

@@ -1,9 +1,10 @@
 """magfem: finite-element simulation of untethered hard-magnetic soft robots.
 
-Stages (one module or package each, following the data flow of DESIGN.md):
-``case`` (validated TOML input) -> ``geometry`` (gmsh robots and field
-sources) -> ``field`` (magnetostatics, waveforms, field models) ->
-``material`` + ``mechanics`` (finite-strain dynamics) -> observers/output.
+Stages, one module or package each, in the order the data flows
+(docs/physics.md): ``case`` (validated TOML input) -> ``geometry`` (gmsh
+robots and field sources) -> ``field`` (magnetostatics, waveforms, field
+models) -> ``material`` + ``mechanics`` (finite-strain dynamics) ->
+observers/output; ``sweep``, ``study`` and ``report`` run studies of cases.
 """
 
 from __future__ import annotations

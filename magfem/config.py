@@ -1,8 +1,11 @@
 """Validation engine that maps TOML tables one-to-one onto frozen dataclasses.
 
 Each stage declares its own case table as a frozen dataclass whose fields
-carry metadata built with :func:`quantity`, :func:`option` or
-:func:`integer`. :func:`from_table` converts a parsed TOML table into that
+carry metadata built with :func:`quantity`, :func:`vector`, :func:`option`,
+:func:`integer` or :func:`flag` (unit, bounds, choices and a one-line
+``doc``; a docstring written under a field serves as its ``doc`` too).
+The same metadata generates the case-file reference, docs/case_reference.md
+(:mod:`magfem.casedoc`). :func:`from_table` converts a parsed TOML table into that
 dataclass: units are converted to SI once, ranges and choices checked, and
 any problem raises :class:`CaseError` naming the key, the value and what is
 allowed. :func:`to_table` is the inverse (SI numbers), used to write the
@@ -15,7 +18,10 @@ dataclasses (array of tables), ``dict[str, ...]`` (free mapping such as PETSc
 options) and ``X | None`` for optional values. A dataclass may define a
 classmethod ``__from_table__(table, where)`` to take over its own parsing
 (used for tables whose keys depend on a discriminator such as ``shape``),
-and a method ``__to_table__()`` for the inverse.
+and a method ``__to_table__()`` for the inverse. A table that lists the
+keys that apply to one value of a ``kind`` option does so through a
+``table_keys()`` method that reads ``kind`` only, or has one subclass per
+kind with a ``KIND`` class variable.
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ __all__ = [
     "CaseError",
     "build_fields",
     "check_keys",
+    "flag",
     "from_table",
     "integer",
     "option",
@@ -123,6 +130,11 @@ def option(
 ) -> Any:
     """A string field restricted to ``choices`` (or free when None)."""
     return dataclasses.field(default=default, metadata={"choices": choices, "doc": doc})
+
+
+def flag(default: Any = _MISSING, *, doc: str = "") -> Any:
+    """A boolean field (``true``/``false`` in TOML)."""
+    return dataclasses.field(default=default, metadata={"doc": doc})
 
 
 def check_keys(table: Mapping[str, Any], allowed: typing.Iterable[str], where: str) -> None:

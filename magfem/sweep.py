@@ -36,20 +36,13 @@ SI, status, wall time, and the point's summary scalars) and
 ``DIR/sweep.png`` (max angle over the first one and two periods against the
 first parameter, one line per combination of the others).
 
-Summary scalars, computed from each run's ``history.csv`` (definitions in
-DESIGN.md): per arm ``max_angle_<arm>`` (max |θ|, rad), ``max_angle_halfperiod_<arm>``,
-``max_angle_1period_<arm>`` and ``max_angle_2periods_<arm>`` (max |θ| over
-[t₀, t₀ + n/f], n = 1/2, 1, 2, f the first periodic source's frequency: the
-first half period is the lift under the first field sign, before any reversal),
-``final_angle_<arm>``;
-``max_strain``, ``max_bending_strain`` (κ h/2 of the sharpest midline bend),
-``first_self_touch`` (s, first sample with a self-contact force; nan if none) and
-``max_self_contact_force`` (N) with self-contact on,
-``max_energy_density`` (J/m³, ρE = 3με²/2),
-``power_density`` (W/m³, f ρE), ``end_time`` (s, last accepted step); the midline
-and speed entries of :func:`magfem.mechanics.observers.summarize_midline`
-(``final_active_length_<arm>`` m, ``max_folds_<arm>``, ``max_tip_normal_<arm>``,
-``max_spread_<arm>``, ``bending_speed_<arm>`` rad/s, ``collapse``, ``partial_bending``).
+Summary scalars (:func:`summarize_history`) are computed from each run's
+``history.csv`` by :func:`magfem.mechanics.observers.history_summary`: per arm
+the largest angle over the first half period, one and two periods of the
+first periodic source and over the run, the final angle, the midline
+observables; the largest strain, energy and power density, self-contact
+times and forces, the end time. Names and definitions: docs/physics.md,
+"Observables".
 """
 
 from __future__ import annotations
@@ -74,8 +67,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
+from magfem.case import load_case
 from magfem.config import CaseError
+from magfem.mechanics.observers import history_summary
 
 __all__ = [
     "Point",
@@ -230,8 +226,6 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     t = cols["time"]
     t0 = float(resolved.get("time", {}).get("start", t[0]))
     freq = _frequency(resolved)
-    from magfem.mechanics.observers import history_summary
-
     out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
     out |= history_summary(cols, start=t0, frequency=freq)
     return out
@@ -287,6 +281,78 @@ class _Log:
                 self.echo(msg)
 
 
+class _PointRunner:
+    """Runs sweep points as ``magfem run`` processes and records each in its ``point.json``."""
+
+    def __init__(
+        self,
+        case_path: Path,
+        out: Path,
+        base_overrides: Sequence[str],
+        fprint: str,
+        ranks: int,
+        log: _Log,
+    ) -> None:
+        self.case_path, self.out, self.base_overrides = case_path, out, base_overrides
+        self.fprint, self.ranks, self.log = fprint, ranks, log
+        self.prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self.lock = threading.Lock()
+        self.ran: list[str] = []
+
+    def run_all(self, todo: Sequence[Point], jobs: int) -> list[str]:
+        """Run ``todo``, ``jobs`` at a time; the ids of the points recorded. Ctrl-C stops
+        the points running (our own child processes, by handle) and re-raises."""
+        pool = ThreadPoolExecutor(max_workers=jobs)
+        try:
+            for fut in [pool.submit(self.run, pt) for pt in todo]:
+                fut.result()
+        except KeyboardInterrupt:
+            pool.shutdown(wait=False, cancel_futures=True)
+            with self.lock:
+                for proc in self.procs.values():
+                    proc.terminate()
+            pool.shutdown(wait=True)
+            raise
+        pool.shutdown(wait=True)
+        return self.ran
+
+    def run(self, pt: Point) -> None:
+        """One point; a point killed by a signal is left unfinished (no ``point.json``)."""
+        pdir = self.out / "points" / pt.ident
+        pdir.mkdir(parents=True, exist_ok=True)
+        cmd = [*self.prefix, sys.executable, "-m", "magfem", "run", str(self.case_path)]
+        cmd += ["--out", str(pdir), "-q"]
+        for item in [*self.base_overrides, *pt.overrides()]:
+            cmd += ["--set", item]
+        self.log(f"start {pt.ident} {json.dumps(pt.params)}")
+        t0 = time.perf_counter()
+        with (pdir / "run.log").open("wb") as fh:
+            proc = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT)
+            with self.lock:
+                self.procs[pt.ident] = proc
+            rc = proc.wait()
+            with self.lock:
+                self.procs.pop(pt.ident, None)
+        wall = time.perf_counter() - t0
+        if rc < 0:
+            self.log(f"killed {pt.ident} (signal {-rc})")
+            return
+        record = {
+            "params": pt.params,
+            "fingerprint": self.fprint,
+            "status": "done" if rc == 0 else "failed",
+            "returncode": rc,
+            "wall_s": wall,
+            "ranks": self.ranks,
+            "summary": summarize_history(pdir),
+        }
+        _write_json(pdir / "point.json", record)
+        self.log(f"{record['status']} {pt.ident} rc={rc} wall={wall:.1f}s")
+        with self.lock:
+            self.ran.append(pt.ident)
+
+
 def run_sweep(
     case_path: str | Path,
     params: Sequence[str],
@@ -316,8 +382,6 @@ def run_sweep(
         CaseError: bad ``--param`` syntax, or a point whose case does not validate
             (checked for every point before anything runs).
     """
-    from magfem.case import load_case
-
     case_path = Path(case_path)
     if jobs < 1:
         raise CaseError("--jobs", jobs, "must be >= 1")
@@ -334,7 +398,7 @@ def run_sweep(
     out = Path(outdir)
     (out / "points").mkdir(parents=True, exist_ok=True)
     log = _Log(out / "sweep.log", echo)
-    prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
+    runner = _PointRunner(case_path, out, base_overrides, fprint, ranks, log)
     result = SweepResult(records=[])
     todo: list[Point] = []
     for pt in points:
@@ -353,54 +417,7 @@ def run_sweep(
         f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
         f"{len(todo)} to run, jobs={jobs}, ranks={ranks}"
     )
-    procs: dict[str, subprocess.Popen[bytes]] = {}
-    lock = threading.Lock()
-
-    def run_point(pt: Point) -> None:
-        pdir = out / "points" / pt.ident
-        pdir.mkdir(parents=True, exist_ok=True)
-        cmd = [*prefix, sys.executable, "-m", "magfem", "run", str(case_path)]
-        cmd += ["--out", str(pdir), "-q"]
-        for item in [*base_overrides, *pt.overrides()]:
-            cmd += ["--set", item]
-        log(f"start {pt.ident} {json.dumps(pt.params)}")
-        t0 = time.perf_counter()
-        with (pdir / "run.log").open("wb") as fh:
-            proc = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT)
-            with lock:
-                procs[pt.ident] = proc
-            rc = proc.wait()
-            with lock:
-                procs.pop(pt.ident, None)
-        wall = time.perf_counter() - t0
-        if rc < 0:  # killed by a signal: leave the point unfinished
-            log(f"killed {pt.ident} (signal {-rc})")
-            return
-        record = {
-            "params": pt.params,
-            "fingerprint": fprint,
-            "status": "done" if rc == 0 else "failed",
-            "returncode": rc,
-            "wall_s": wall,
-            "ranks": ranks,
-            "summary": summarize_history(pdir),
-        }
-        _write_json(pdir / "point.json", record)
-        log(f"{record['status']} {pt.ident} rc={rc} wall={wall:.1f}s")
-        result.ran.append(pt.ident)
-
-    pool = ThreadPoolExecutor(max_workers=jobs)
-    try:
-        for fut in [pool.submit(run_point, pt) for pt in todo]:
-            fut.result()
-    except KeyboardInterrupt:
-        pool.shutdown(wait=False, cancel_futures=True)
-        with lock:
-            for proc in procs.values():  # our own children, by handle
-                proc.terminate()
-        pool.shutdown(wait=True)
-        raise
-    pool.shutdown(wait=True)
+    result.ran = runner.run_all(todo, jobs)
     for pt in points:
         rec = _read_record(out / "points" / pt.ident)
         result.records.append(
@@ -458,11 +475,6 @@ def plot_sweep(
 ) -> Path | None:
     """Max angle over one and two periods (deg) against the first parameter (PNG): one
     line per combination of the other parameters, or a single line when ``paired``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     done = [r for r in records if r.get("summary")]
     keys = sorted(
         {k for r in done for k in r["summary"] if k.startswith("max_angle_")},
@@ -475,7 +487,8 @@ def plot_sweep(
     groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for r in done:
         groups.setdefault(tuple(r["params"][n] for n in others), []).append(r)
-    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    fig = Figure(figsize=(7, 4), dpi=110)
+    ax = fig.subplots()
     # a non-numeric first parameter (robot.type, mesh.model) is plotted as categories
     categories = list(dict.fromkeys(r["params"][x_name] for r in done))
     numeric = not all(math.isnan(r["si"][x_name]) for r in done)
@@ -504,5 +517,4 @@ def plot_sweep(
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return path

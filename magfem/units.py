@@ -17,7 +17,15 @@ from __future__ import annotations
 import math
 import re
 
-__all__ = ["UnitError", "dimension_of", "parse_quantity", "parse_unit"]
+__all__ = [
+    "PREFIXES",
+    "UNIT_SYMBOLS",
+    "UNPREFIXED",
+    "UnitError",
+    "dimension_of",
+    "parse_quantity",
+    "parse_unit",
+]
 
 # Dimension vector: exponents of (m, kg, s, A).
 Dim = tuple[int, int, int, int]
@@ -60,6 +68,12 @@ _PREFIX = {
     "n": 1e-9,
     "p": 1e-12,
 }
+
+UNIT_SYMBOLS: tuple[str, ...] = tuple(_BASE)
+"""The unit symbols a quantity string may use (``1`` is a plain number)."""
+PREFIXES: tuple[str, ...] = tuple(_PREFIX)
+"""SI prefixes, on every symbol but those of :data:`UNPREFIXED`."""
+UNPREFIXED: tuple[str, ...] = tuple(sorted(_NO_PREFIX))
 
 _NUMBER = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
 _FACTOR = re.compile(r"^([^\^]+?)(?:\^([+-]?\d+))?$")

@@ -24,8 +24,8 @@ from magfem.mechanics.contacts.penalty import (
     contact_stiffness,
     create_penalty_law,
     critical_contact_damping,
+    penalty_penetration,
 )
-from magfem.mechanics.reference import penalty_penetration
 
 LX, LY, H = 2e-3, 1e-3, 1e-4  # box (m)
 AREA = LX * LY

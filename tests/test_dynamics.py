@@ -184,12 +184,12 @@ def test_static_strip_matches_elastica_and_p1_locks(comm, degree, size, bound):
     """Quasi-static clamped strip (plane strain), field ramped to 0.2 mT against the arm.
 
     Reference: hard-magnetic elastica θ'' = λ sin(θ + π/2 − π), λ = 12 M B L²/(E' h²)
-    (magfem.mechanics.reference, solve_bvp). Measured P2: 65.88° (0.5 mm), 64.73°
+    (verification.references, solve_bvp). Measured P2: 65.88° (0.5 mm), 64.73°
     (1 mm) vs 65.94°; P1 on the same 0.5 mm mesh: 12.2° (shear locking of one
     element through the thickness), which this test also records.
     """
     from magfem import material
-    from magfem.mechanics import reference
+    from verification import references as reference
 
     B = 0.2e-3
     free_length = 6.5e-3  # 7.5 mm minus the 1 mm clamp
@@ -337,7 +337,7 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, model,
     width (measured 0.956 at 100 µm).
     The beam stays flat (tip lift below one thickness).
     """
-    from magfem.mechanics.reference import penalty_penetration
+    from magfem.mechanics.contacts.penalty import penalty_penetration
 
     case = _case(
         robot={"thickness": thickness},

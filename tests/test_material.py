@@ -174,14 +174,14 @@ def test_magnetoelastic_length_is_the_decay_length_of_the_elastica():
     """ℓ = t √(E/(12 M B)) is the width of a field-driven bend.
 
     Independent reference: the clamped hard-magnetic elastica θ'' = λ sin(θ + α − φ)
-    (scipy solve_bvp, magfem.mechanics.reference) of an arm 15 ℓ long, M across
+    (scipy solve_bvp, verification.references) of an arm 15 ℓ long, M across
     the thickness (α = 90°), B along the arm (φ = 0): beyond the root bend the
     angle approaches −90° and its deficit decays as exp(−s/ℓ) (the linearised
     equation). The fitted decay length over 4 ℓ < s < 10 ℓ agrees to 1e-3: there
     the deficit δ is below 0.03 rad, so sin δ differs from δ by δ²/6 < 1.5e-4
     relative, and solve_bvp's tolerance is 1e-10 (measured agreement 5e-6).
     """
-    from magfem.mechanics import reference
+    from verification import references as reference
 
     t, M, B = 80e-6, 123e3, 2e-3
     ell = material.magnetoelastic_length(MU, K, t, M, B)

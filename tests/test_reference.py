@@ -1,4 +1,4 @@
-"""The independent references (magfem.mechanics.reference) checked against each other
+"""The independent references (verification.references) checked against each other
 and against their known limits. Pure scipy: no mesh, runs on every rank.
 """
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from magfem.mechanics import reference as ref
+from verification import references as ref
 
 
 def test_material_constants_of_the_neo_hookean_solid():

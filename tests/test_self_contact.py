@@ -37,9 +37,9 @@ from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.gmshio import build_mesh
 from magfem.geometry.robot_mesh import RobotMesh
-from magfem.mechanics import reference as ref
 from magfem.mechanics.simulation import Simulation
 from magfem.pipeline import build_simulation
+from verification import references as ref
 
 L, H, SIZE, MU, RHO, WIDTH = 1e-3, 2e-4, 1e-4, 115e3, 2130.0, 1e-3
 

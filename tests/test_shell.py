@@ -21,9 +21,9 @@ from test_dynamics import BASE as STRIP_BASE  # the same arm and drive as the st
 from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
 from magfem.pipeline import build_simulation
+from verification import references as ref
+from verification import setups as vc
 
 BASE: dict[str, Any] = copy.deepcopy(STRIP_BASE) | {
     "name": "shell",

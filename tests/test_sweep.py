@@ -10,14 +10,13 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 import tomli_w
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.sweep import build_points, fingerprint, parse_param
+from magfem.sweep import build_points, parse_param
 
 # A 4 mm strip arm, 4 x 0.5 mm P2 quads, a few steps: ~3 s per point with a warm JIT cache.
 CASE = {
@@ -149,51 +148,6 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     starts = (out / "sweep.log").read_text().count(" start ")
     assert main(cmd[3:]) == 0
     assert (out / "sweep.log").read_text().count(" start ") == starts
-
-
-def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, repo, monkeypatch):
-    """``build_report`` without running: a finished point is tabulated in SI-derived units
-    (angle in degrees, speed in deg/ms), every other scene is listed as missing."""
-    from magfem.report import STUDIES, build_report
-
-    monkeypatch.chdir(repo)  # the studies name their case files relative to the repository
-    study = next(s for s in STUDIES if s.ident == "two-arm-20hz")
-    fprint = fingerprint(Path(study.case), study.sets)
-    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
-    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
-    point.mkdir(parents=True)
-    summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
-    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
-    (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
-    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
-    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
-    # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
-    assert "| 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
-    # 80 µm, 2 mT, 0.1 mm strip: ℓ = 80 µm √(2.990 μ/(12 M B)) = 0.863 mm, 8.6 elements
-    assert "magnetoelastic length 0.863 mm at 2 mT: 8.6 element(s) per length" in page
-    assert page.count("**Prediction missing:** not run yet") == len(STUDIES) - 1
-    with pytest.raises(CaseError, match="--only"):
-        build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
-
-
-def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
-    """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
-    from magfem.report import STUDIES, build_report
-
-    monkeypatch.chdir(repo)
-    study = next(s for s in STUDIES if s.unresolved)
-    fprint = fingerprint(Path(study.case), study.sets)
-    points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
-    for pt in points:
-        point = tmp_path / "out" / study.ident / "points" / pt.ident
-        point.mkdir(parents=True)
-        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
-        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
-    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
-    n = len(points)
-    row = f"| [{study.ident}](#{study.ident}) | under-resolved | {n}/{n} | {n} |"
-    assert row in page
-    assert f"**Prediction missing:** under-resolved: {study.unresolved}" in page
 
 
 def test_history_summary_reads_first_self_touch(tmp_path):

@@ -16,15 +16,15 @@ penetration within 5e-5 (relative) of the closed form after 20 ms of
 settling; deceleration +0.3 % off μ_f g (fit while v > 10 v_ε); distance
 +0.07 % off the regularised closed form; distance against Coulomb +44 %,
 +1.1 %, +0.07 % for v_ε = 10, 1, 0.1 mm/s. The case and the runs:
-:mod:`magfem.mechanics.verification` (shared with benchmarks/contact_convergence.py).
+:mod:`verification.setups` (shared with benchmarks/contact_convergence.py).
 """
 
 from __future__ import annotations
 
 import pytest
 
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
+from verification import references as ref
+from verification import setups as vc
 
 MU_F, G, V0 = vc.FRICTION, vc.GRAVITY, vc.SLIDE_SPEED
 

@@ -3,10 +3,10 @@
 A rectangular arm (80 µm, μ = 115 kPa, M = 123 kA/m through the thickness,
 1 mm root strip bonded to the substrate) in a field along the arm
 (−x, the sign that lifts it), ramped quasi-statically. Reference:
-:func:`magfem.mechanics.reference.hard_magnetic_elastica` for the free
+:func:`verification.references.hard_magnetic_elastica` for the free
 length L − clamp_length, observed exactly like the simulation (the chord over
 the last TIP_OFFSET of the arm). Loads λ = 12 M B L²/(E' h²) from 2 to 9
-(tip angles 47°–80°). The case and the runs: :mod:`magfem.mechanics.verification`
+(tip angles 47°–80°). The case and the runs: :mod:`verification.setups`
 (shared with benchmarks/elastica_convergence.py).
 
 Measured (``python benchmarks/elastica_convergence.py``, docs/verification.md):
@@ -28,10 +28,10 @@ import numpy as np
 import pytest
 
 from magfem import material
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
-from magfem.mechanics.verification import elastica_reference_angles as reference_angles
-from magfem.mechanics.verification import rigid_root_block
+from verification import references as ref
+from verification import setups as vc
+from verification.setups import elastica_reference_angles as reference_angles
+from verification.setups import rigid_root_block
 
 CLAMP, MU = vc.CLAMP_LENGTH, vc.SHEAR_MODULUS
 

@@ -8,13 +8,13 @@ tip amplitude ~0.4°, linear). Generalized-α with ρ∞ = 1 (no numerical
 dissipation) at Δt = T/80; the frequency is the inverse mean spacing of the
 downward zero crossings of the tip angle over two periods.
 
-Reference: :func:`magfem.mechanics.reference.cantilever_frequency` with
+Reference: :func:`verification.references.cantilever_frequency` with
 the plate modulus E/(1 − ν²) for plane strain (an arm much wider than
 thick in cylindrical bending) and 3μ for the strip's plane-stress law
 (whose Young's modulus is that of the incompressible limit, see
 :mod:`magfem.material`); the two differ by 15 %, so the plate correction
 is what decides the answer. The case, the push and the frequency
-measurement: :mod:`magfem.mechanics.verification` (shared with
+measurement: :mod:`verification.setups` (shared with
 benchmarks/elastica_convergence.py).
 
 Measured (docs/verification.md): plane strain +0.92 % (1 mm), +0.08 %
@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import pytest
 
-from magfem.mechanics import reference as ref
-from magfem.mechanics import verification as vc
+from verification import references as ref
+from verification import setups as vc
 
 H, MU, RHO, FREE = vc.THICKNESS, vc.SHEAR_MODULUS, vc.DENSITY, vc.FREE_LENGTH
 

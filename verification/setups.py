@@ -1,9 +1,9 @@
-"""Verification cases shared by tests/test_verification_*.py and benchmarks/.
+"""Verification set-ups shared by the tests and the benchmarks.
 
 One place for the case tables the mechanics is verified with, parameterised
 by what the tests and the convergence benchmarks vary (mesh model and size,
 section, plane law, supports), the runs built on them and the observables
-compared with :mod:`magfem.mechanics.reference`:
+compared with :mod:`verification.references`:
 
 * the cantilever: an 80 µm arm, 7.5 mm long with a 1 mm root strip bonded to
   the substrate (``clamp_length``), μ = 115 kPa, ρ = 2130 kg/m³,
@@ -32,11 +32,11 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from magfem.case import Case, parse_case
-from magfem.mechanics import reference as ref
 from magfem.mechanics.contacts.penalty import create_penalty_law
 from magfem.mechanics.observers import TIP_OFFSET
 from magfem.mechanics.simulation import Simulation
 from magfem.pipeline import build_simulation
+from verification import references as ref
 
 # --- cantilever --------------------------------------------------------------------------------
 
@@ -223,7 +223,7 @@ def first_mode(x: Any, clamp: float = CLAMP_LENGTH) -> tuple[Any, Any]:
     """Clamped–free mode φ₁ (1) and φ₁' (1/m) at x (m), zero on the root x <= ``clamp`` (m).
 
     The rod runs from ``clamp`` to the arm's end (LENGTH). Normalised to φ₁ = 1
-    at the tip (Euler–Bernoulli; eigenvalue from :func:`reference.cantilever_eigenvalue`).
+    at the tip (Euler–Bernoulli; eigenvalue from :func:`references.cantilever_eigenvalue`).
     """
     free = LENGTH - clamp
     b = ref.cantilever_eigenvalue(1) / free
@@ -376,8 +376,8 @@ def rest_on_ground(
 ) -> RestingRun:
     """Let the membrane settle for ``end`` (s) and compare its penetration with the penalty law.
 
-    Reference: :func:`reference.penalty_penetration` under
-    :func:`reference.resting_pressure`, with the law the case builds.
+    Reference: :func:`references.penalty_penetration` under
+    :func:`references.resting_pressure`, with the law the case builds.
     """
     case = ground_membrane_case(model, contact, {"end": end, "step": step})
     sim = build_simulation(case, comm)

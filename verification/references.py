@@ -71,7 +71,8 @@ A flat membrane of density ρ and thickness h resting on the ground presses
 with p = ρ g h (Pa). The penalty pressure is p = k_n r(δ) with the C¹ ramp
 r (quadratic onset of width δ0), so the static penetration is
 δ = sqrt(2 δ0 p / k_n) for p/k_n < δ0/2 and δ = p/k_n + δ0/2 beyond
-(:func:`penalty_penetration`). The membrane's own compression
+(:func:`penalty_penetration`, the time loop's own function from
+:mod:`magfem.mechanics.contacts.penalty`, re-exported here). The membrane's own compression
 (≈ ρ g h² / (2 (K + 4μ/3))) does not enter: the bottom face carries the
 whole weight whatever the layer does.
 

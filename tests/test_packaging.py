@@ -1,0 +1,61 @@
+"""Every third-party module the code imports is declared in pyproject.toml."""
+
+from __future__ import annotations
+
+import ast
+import importlib.metadata
+import re
+import sys
+import tomllib
+
+# Part of every dolfinx 0.11 install (the PyPI wheel dolfinx-solver-real bundles them, a
+# conda-forge install brings them as its own packages): not declared on their own.
+WITH_DOLFINX = {"dolfinx", "dolfinx_solver", "petsc4py"}
+LOCAL = {"magfem", "verification", "benchmarks", "conftest", "test_dynamics"}
+
+
+def _imports(paths, skip=None):
+    """Top-level names imported (absolutely) by the Python files under ``paths`` (less the
+    folder ``skip``)."""
+    names = set()
+    for root in paths:
+        for path in root.rglob("*.py"):
+            if skip is not None and path.is_relative_to(skip):
+                continue
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.Import):
+                    names |= {a.name.split(".")[0] for a in node.names}
+                elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                    names.add(node.module.split(".")[0])
+    return names - set(sys.stdlib_module_names) - LOCAL - WITH_DOLFINX
+
+
+def _normalise(name):
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def _declared(requirements):
+    return {_normalise(re.match(r"[A-Za-z0-9_.-]+", r).group(0)) for r in requirements}
+
+
+def _undeclared(modules, declared):
+    providers = importlib.metadata.packages_distributions()
+    return sorted(
+        m for m in modules if not {_normalise(d) for d in providers.get(m, [m])} & declared
+    )
+
+
+def test_package_imports_are_runtime_dependencies(repo):
+    project = tomllib.loads((repo / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    runtime = _declared(project["dependencies"])
+    package = _imports([repo / "magfem"], skip=repo / "magfem" / "_testing")
+    assert _undeclared(package, runtime) == []
+
+
+def test_test_and_benchmark_imports_are_declared(repo):
+    project = tomllib.loads((repo / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    declared = _declared(project["dependencies"]) | _declared(
+        project["optional-dependencies"]["test"]
+    )
+    dirs = [repo / d for d in ("tests", "benchmarks", "verification", "magfem/_testing")]
+    assert _undeclared(_imports(dirs), declared) == []

@@ -1,0 +1,111 @@
+"""``magfem report`` without running: finished points are tabulated, the rest said missing."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from magfem.cli import main
+from magfem.config import CaseError
+from magfem.report import build_report
+from magfem.study import load_studies
+from magfem.sweep import build_points, fingerprint, parse_param
+
+
+def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, repo, monkeypatch):
+    """A finished point is tabulated in SI-derived units (angle in degrees, speed in
+    deg/ms), every other scene is listed as missing."""
+    monkeypatch.chdir(repo)  # the studies name their case files relative to the repository
+    studies = load_studies()
+    study = next(s for s in studies if s.ident == "two-arm-20hz")
+    fprint = fingerprint(Path(study.case), study.sets)
+    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
+    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
+    point.mkdir(parents=True)
+    summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
+    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+    (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
+    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
+    # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
+    assert "| 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
+    # 80 µm, 2 mT, 0.1 mm strip: ℓ = 80 µm √(2.990 μ/(12 M B)) = 0.863 mm, 8.6 elements
+    assert "magnetoelastic length 0.863 mm at 2 mT: 8.6 element(s) per length" in page
+    assert page.count("**Prediction missing:** not run yet") == len(studies) - 1
+    with pytest.raises(CaseError, match="--only"):
+        build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
+
+
+def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
+    """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
+    monkeypatch.chdir(repo)
+    study = next(s for s in load_studies() if s.unresolved)
+    fprint = fingerprint(Path(study.case), study.sets)
+    points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
+    for pt in points:
+        point = tmp_path / "out" / study.ident / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
+    n = len(points)
+    row = f"| [{study.ident}](#{study.ident}) | under-resolved | {n}/{n} | {n} |"
+    assert row in page
+    assert f"**Prediction missing:** under-resolved: {study.unresolved}" in page
+
+
+def test_report_takes_a_new_study_file_without_code(tmp_path, repo, monkeypatch):
+    """A study added as a file (here the only one, in another folder) is a scene of the page."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    (folder / "my-scene.toml").write_text(
+        'title = "My scene"\ncase = "cases/self_clean.toml"\nobserve = "the angle"\n'
+        'params = ["time.end=10ms,20ms"]\n',
+        encoding="utf-8",
+    )
+    page = build_report(
+        tmp_path / "out", docs=tmp_path / "docs", studies=folder, echo=None
+    ).read_text()
+    assert "| [my-scene](#my-scene) | missing | 0/– | 0 |" in page
+    assert "## my-scene" in page and "**My scene.** Observe: the angle." in page
+    assert "--param time.end=10ms,20ms" in page
+
+
+@pytest.mark.serial  # the report driver refuses mpirun before it reads the studies
+def test_report_with_a_bad_study_file_exits_2_with_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cases" / "studies").mkdir(parents=True)
+    (tmp_path / "cases" / "studies" / "bad.toml").write_text(
+        'title = "t"\ncase = "c.toml"\nobserve = "o"\nparams = ["x=1"]\nrepeat = 2\n',
+        encoding="utf-8",
+    )
+    code = main(["report", "--out", str(tmp_path / "out"), "--docs", str(tmp_path / "docs")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("magfem: error: cases/studies/bad.toml: repeat = 2: unknown key")
+
+
+@pytest.mark.serial  # each run is its own process; the driver is serial
+def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monkeypatch):
+    """``run=True`` sweeps the selected study (1 ms of the self-clean strip at the tests'
+    0.5 mm, ~5 s) and tabulates the run's history; reading again gives the same row."""
+    monkeypatch.chdir(repo)
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "probe.toml").write_text(
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "the angle"\n'
+        'params = ["time.end=1ms"]\ncolumns = ["max_strain"]\nsets = ["mesh.size=0.5mm", '
+        '"output.vtx_every=0", "output.plot=false", "output.animation=false"]\n',
+        encoding="utf-8",
+    )
+    kwargs = {"docs": tmp_path / "docs", "studies": tmp_path / "studies", "echo": None}
+    page = build_report(tmp_path / "out", run=True, only=["probe"], **kwargs).read_text()
+    assert "| [probe](#probe) | predicted | 1/1 |" in page
+    row = next(line for line in page.splitlines() if line.startswith("| 1ms | done |"))
+    assert row.endswith("| 0.001 |")  # end_time: the run reached its end, 1 ms
+    again = build_report(tmp_path / "out", **kwargs).read_text()  # read only: same table
+    assert row in again
