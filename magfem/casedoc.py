@@ -308,15 +308,20 @@ def build_reference() -> str:
     """The Markdown text of docs/case_reference.md."""
     hints = typing.get_type_hints(Case)
     tables = [f.name for f in dataclasses.fields(Case) if _is_table(hints[f.name])]
+    arrays = [f.name for f in dataclasses.fields(Case) if _is_table_array(hints[f.name])]
     header = _HEADER.format(
         units=", ".join(f"`{u}`" for u in UNIT_SYMBOLS if u != "1"),
         prefixes=" ".join(f"`{p}`" for p in PREFIXES),
         unprefixed=", ".join(f"`{u}`" for u in UNPREFIXED if u != "1"),
     )
-    lines = [header, "", "Tables: " + ", ".join(f"`[{t}]`" for t in tables) + ".", ""]
+    names = [f"`[{t}]`" for t in tables] + [f"`[[{a}]]`" for a in arrays]
+    lines = [header, "", "Tables: " + ", ".join(names) + ".", ""]
     lines += _top_level()
     for name in tables:
         lines += list(_sections(_optional(hints[name]), name))
+    for name in arrays:
+        item = typing.get_args(_optional(hints[name]))[0]
+        lines += list(_sections(item, name, array=True))
     lines += [
         "## Study files (`cases/studies/*.toml`)",
         "",

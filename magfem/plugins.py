@@ -35,12 +35,18 @@ class Registry[T]:
         self._items: dict[str, T] = {}
 
     def register(self, name: str) -> Callable[[T], T]:
-        """Decorator registering its argument under ``name`` (a programming error if taken)."""
+        """Decorator registering its argument under ``name`` (a programming error if taken).
+
+        A registered class gets the class attribute ``KIND = name`` (the case
+        reference lists the kinds of a table through it).
+        """
 
         def add(item: T) -> T:
             if name in self._items:
                 raise ValueError(f"{self.what} '{name}' is registered twice")
             self._items[name] = item
+            if isinstance(item, type):
+                setattr(item, "KIND", name)  # noqa: B010  (a class attribute of a part)
             return item
 
         return add

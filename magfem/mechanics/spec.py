@@ -330,7 +330,7 @@ class OutputSpec:
     vtx_every: int = integer(10, ge=0, doc="write the displacement to VTX every N steps (0: never)")
     plot: bool = True
     animation: bool = True
-    """GIF of the motion (``motion.gif``, :func:`magfem.mechanics.output.write_animation`)."""
+    """GIF of the motion (``motion.gif``, :func:`magfem.mechanics.animation.write_animation`)."""
     animation_frames: int = integer(
         60, ge=2, le=1000, doc="snapshots of the boundary surface over the run (GIF frames)"
     )

@@ -36,7 +36,7 @@ from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import MaterialSpec
 from magfem.plugins import Registry, build_registered
 
-__all__ = ["CONTACTS", "Contact", "ContactKindSpec", "sum_work"]
+__all__ = ["CONTACTS", "Contact", "ContactKindSpec"]
 
 
 class Contact:
@@ -89,17 +89,6 @@ class Contact:
     def summary(self) -> dict[str, float]:
         """Scalars over the whole run."""
         return {}
-
-
-def sum_work(faces: Sequence[Face], tractions: Sequence[Any]) -> list[Any]:
-    """Σ over faces of the virtual work of one traction per face, per unknown."""
-    total: list[Any] | None = None
-    for face, t in zip(faces, tractions, strict=True):
-        work = face.work(t)
-        total = work if total is None else [a + b for a, b in zip(total, work, strict=True)]
-    if total is None:
-        raise ValueError("sum_work needs at least one face")
-    return total
 
 
 CONTACTS: Registry[type[Any]] = Registry("contact kind")

@@ -22,7 +22,7 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
-from magfem.mechanics.contacts.base import Contact, sum_work
+from magfem.mechanics.contacts.base import Contact
 from magfem.mechanics.contacts.penalty import (
     PenaltyLaw,
     create_penalty_law,
@@ -30,7 +30,7 @@ from magfem.mechanics.contacts.penalty import (
     penalty_ramp,
 )
 from magfem.mechanics.forms import JIT_OPTIONS, assemble_scalars
-from magfem.mechanics.models.base import Face, Model
+from magfem.mechanics.models.base import Face, Model, sum_work
 from magfem.mechanics.spec import ContactSpec
 
 __all__ = ["GroundContact", "GroundPlane", "ImpactAbsorber"]

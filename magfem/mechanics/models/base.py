@@ -30,7 +30,7 @@ from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
 
-__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model"]
+__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model", "sum_work"]
 
 FluxDensity = Callable[[Any], Any]
 """B_a(x) (T) as a UFL 3-vector of a current position x (UFL 3-vector, m)."""
@@ -72,6 +72,17 @@ class Face:
     work: Callable[[Any], list[Any]]
     measure: Any
     facets: npt.NDArray[np.int32] | None
+
+
+def sum_work(faces: Sequence[Face], tractions: Sequence[Any]) -> list[Any]:
+    """Σ over faces of the virtual work of one traction per face, per unknown."""
+    total: list[Any] | None = None
+    for face, t in zip(faces, tractions, strict=True):
+        work = face.work(t)
+        total = work if total is None else [a + b for a, b in zip(total, work, strict=True)]
+    if total is None:
+        raise ValueError("sum_work needs at least one face")
+    return total
 
 
 class Model(ABC):
