@@ -45,7 +45,16 @@ from magfem.mechanics.spec import (
     TimeSpec,
 )
 
-__all__ = ["Case", "apply_overrides", "load_case", "parse_case", "write_resolved_case"]
+__all__ = [
+    "Case",
+    "FieldCase",
+    "apply_overrides",
+    "load_case",
+    "load_field_case",
+    "parse_case",
+    "parse_field_case",
+    "write_resolved_case",
+]
 
 
 @dataclass(frozen=True)
@@ -183,13 +192,48 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
     return out
 
 
-def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
-    """Read, override and validate a case file.
+@dataclass(frozen=True)
+class FieldCase:
+    """What ``magfem field`` needs from a case without ``[robot]``: its name and ``[field]``."""
 
-    Raises:
-        CaseError: with the file name in the message, for every bad input
-            (missing file, TOML syntax, unknown key, unit, range, ...).
+    name: str
+    field: FieldSpec = _field(default_factory=FieldSpec)
+    description: str = ""
+
+
+def parse_field_case(data: Mapping[str, Any]) -> Case | FieldCase:
+    """A :class:`Case` if the document has ``[robot]``, else a :class:`FieldCase`.
+
+    Without ``[robot]`` the other tables that are present are still validated.
     """
+    if "robot" in data:
+        return parse_case(data)
+    check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
+    for key, spec_type in _spec_types().items():
+        if key in data:
+            if not isinstance(data[key], Mapping):
+                raise CaseError(key, data[key], "must be a table")
+            if key != "field":
+                from_table(spec_type, data[key], key)
+    for key in ("name", "description"):
+        raw = data.get(key, "")
+        if not isinstance(raw, str) or (key == "name" and not raw.strip()):
+            raise CaseError(key, raw or MISSING, "must be a non-empty string")
+    field = from_table(FieldSpec, data.get("field", {}), "field")
+    return FieldCase(name=data["name"], field=field, description=data.get("description", ""))
+
+
+def load_field_case(path: str | Path, overrides: Iterable[str] = ()) -> Case | FieldCase:
+    """Read, override and validate a case file for ``magfem field`` (``[robot]`` optional)."""
+    data, source = _read(path, overrides)
+    try:
+        return parse_field_case(data)
+    except CaseError as err:
+        raise err.with_source(source) from None
+
+
+def _read(path: str | Path, overrides: Iterable[str]) -> tuple[dict[str, Any], str]:
+    """The parsed, overridden TOML document of ``path`` and its name for messages."""
     path = Path(path)
     source = str(path)
     if not path.is_file():
@@ -205,12 +249,26 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
     except tomllib.TOMLDecodeError as err:
         raise CaseError("(file)", MISSING, f"TOML syntax error: {err}", source) from None
     try:
-        return parse_case(apply_overrides(data, overrides))
+        return apply_overrides(data, overrides), source
     except CaseError as err:
         raise err.with_source(source) from None
 
 
-def write_resolved_case(case: Case, path: str | Path) -> Path:
+def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
+    """Read, override and validate a case file.
+
+    Raises:
+        CaseError: with the file name in the message, for every bad input
+            (missing file, TOML syntax, unknown key, unit, range, ...).
+    """
+    data, source = _read(path, overrides)
+    try:
+        return parse_case(data)
+    except CaseError as err:
+        raise err.with_source(source) from None
+
+
+def write_resolved_case(case: Case | FieldCase, path: str | Path) -> Path:
     """Write the case with all defaults filled in, SI numbers, as TOML."""
     import tomli_w
 

@@ -27,7 +27,7 @@ from magfem.config import CaseError
 if TYPE_CHECKING:
     from mpi4py import MPI
 
-    from magfem.case import Case
+    from magfem.case import Case, FieldCase
 
 __all__ = ["main"]
 
@@ -49,7 +49,7 @@ def _say(comm: MPI.Comm, *args: object) -> None:
     rank0_print(*args, comm=comm)
 
 
-def _outdir(args: argparse.Namespace, case: Case) -> Path:
+def _outdir(args: argparse.Namespace, case: Case | FieldCase) -> Path:
     return Path(args.out) if args.out else Path("output") / case.name
 
 
@@ -91,7 +91,7 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     return 0
 
 
-def _cmd_field(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+def _cmd_field(args: argparse.Namespace, case: Case | FieldCase, comm: MPI.Comm) -> int:
     from magfem.field.run import run_field
 
     outdir = _outdir(args, case)
@@ -117,7 +117,7 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     return 0
 
 
-def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
+def _write_resolved(case: Case | FieldCase, outdir: Path, comm: MPI.Comm) -> Path:
     from magfem.case import write_resolved_case
 
     path = outdir / "case.resolved.toml"
@@ -175,7 +175,7 @@ def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
     return 0
 
 
-_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "field": _cmd_field, "run": _cmd_run}
+_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "run": _cmd_run}
 _DRIVERS = {"sweep": _cmd_sweep, "report": _cmd_report}
 
 
@@ -250,8 +250,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command in _DRIVERS:
             return _DRIVERS[args.command](args, comm)
-        from magfem.case import load_case
+        from magfem.case import load_case, load_field_case
 
+        if args.command == "field":  # [robot], [mesh], [material] optional
+            return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
         case = load_case(args.case, args.overrides)
         return _COMMANDS[args.command](args, case, comm)
     except CaseError as err:
