@@ -206,7 +206,7 @@ def _solid_grid(part: Any) -> Any:
         pts = np.vstack([base + max(part.r0, 1e-9) * ring, base + vec + max(part.r1, 1e-9) * ring])
     else:
         pts = np.asarray(part.corners)
-    return pyvista.PolyData(pts).delaunay_3d().extract_surface()
+    return pyvista.PolyData(pts).delaunay_3d().extract_surface(algorithm="dataset_surface")
 
 
 def source_grids(sources: Sequence[Any], iron: Sequence[Any] = ()) -> list[MeshItem]:

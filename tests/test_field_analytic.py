@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 import pytest
+from field_reference import block_by_charges, sheet_by_loops, thick_coil_by_loops
 from scipy.integrate import quad
 from scipy.special import ellipe, ellipk
 
-from field_reference import block_by_charges, sheet_by_loops, thick_coil_by_loops
 from magfem.field import analytic as an
 from magfem.field.placement import Placement, frame, rotation
 from magfem.field.source import BlockMagnetField, CoilField, CylinderMagnetField
@@ -25,8 +25,9 @@ PAIR = dict(r1=0.025, r2=0.0575, length=0.035, turns=270, current=1.0)
 
 
 def _pair(polarity: float = 1.0) -> CoilField:
-    return CoilField(np.zeros(3), Z, 0.025, 0.0575, 0.035, 270, 1.0,
-                     [(-0.035, 1.0), (0.035, polarity)])  # fmt: skip
+    return CoilField(
+        np.zeros(3), Z, 0.025, 0.0575, 0.035, 270, 1.0, [(-0.035, 1.0), (0.035, polarity)]
+    )
 
 
 def test_cel_gives_the_complete_elliptic_integrals():
@@ -84,13 +85,14 @@ def test_coil_quadrature_is_converged_down_to_its_resolution():
     rho, z = np.full_like(d, 0.04), 0.0175 + d  # above the end face at r = 40 mm
     br, bz, _ = an.thick_coil_local(0.025, 0.0575, 0.035, 270, 1.0, rho, z)
     J = 270 / ((0.0575 - 0.025) * 0.035)
-    ref = np.array(
-        [
-            [quad(lambda a, k=k: J * an.sheet_field(a, 0.0175, 1.0, r, zz)[k], 0.025, 0.0575,
-                  points=[r], epsabs=0, epsrel=1e-12, limit=200)[0] for k in (0, 1)]
-            for r, zz in zip(rho, z, strict=True)
-        ]
-    )  # fmt: skip
+
+    def radial(r: float, zz: float, k: int) -> float:
+        def f(a: float) -> float:
+            return float(J * an.sheet_field(a, 0.0175, 1.0, np.array(r), np.array(zz))[k])
+
+        return quad(f, 0.025, 0.0575, points=[r], epsabs=0, epsrel=1e-12, limit=200)[0]
+
+    ref = np.array([[radial(r, zz, k) for k in (0, 1)] for r, zz in zip(rho, z, strict=True)])
     # panels <= 2 d: measured <= 2e-9 of |B| at the resolution limit (panel = 2.5 d)
     assert np.abs(np.column_stack([br, bz]) - ref).max() < 1e-8 * np.abs(ref).max()
 
@@ -109,7 +111,7 @@ def test_gradients_are_exact_div_and_curl_free(kind):
         field = BlockMagnetField(np.zeros(3), axis, np.array([0.01, 0.006, 0.004]), 1.3, roll=0.4)
         P = rng.uniform(-0.02, 0.02, (20, 3))
     P = P[~field.inside(P)]
-    B, G = field.field_and_gradient(P)
+    _, G = field.field_and_gradient(P)
     Gfd = an.gradient_fd(field.flux_density, P, 1e-6)
     scale = np.abs(G).max()
     # 4th-order differences with h = 1e-6 m: truncation and round-off ~1e-10 of the gradient

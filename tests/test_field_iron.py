@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 import pytest
-
 from field_reference import iron_sphere
+
 from magfem.config import from_table
 from magfem.field import analytic as an
 from magfem.field.build import build_terms
@@ -157,7 +157,7 @@ def test_nonlinear_iron_follows_a_square_wave(comm):
     up, down = model.evaluate(p, 0.01), model.evaluate(p, 0.06)
     np.testing.assert_allclose(down, -up, rtol=1e-14)  # odd B-H law: the reversed solution
     _, M = iron_sphere(1000.0, 1.0, 1.5)
-    ref = an.dipole_field([0, 0, 4 / 3 * math.pi * A**3 * M], p) + [0, 0, 1.0]
+    ref = an.dipole_field([0, 0, 4 / 3 * math.pi * A**3 * M], p) + np.array([0, 0, 1.0])
     err = np.linalg.norm(up - ref, axis=1) / np.linalg.norm(ref, axis=1)
     assert err.max() < 2e-3  # P2, 1 mm at the surface: measured 6.6e-4
 
@@ -167,14 +167,37 @@ def test_iron_moves_rigidly_with_its_magnet(comm):
         "workspace_size": "4 mm",
         "expansion_point": [0, 0, 0.004],
         "model": "nodal",
-        "sources": [{"kind": "cylinder_magnet", "center": [0, 0, -0.0125], "radius": "3 mm",
-                     "length": "4 mm", "motion": "slide"}],
-        "iron": [{"kind": "needle", "tip": [0, 0, 0.0], "axis": [0, 0, -1], "radius": "1 mm",
-                  "length": "8 mm", "tip_length": "2 mm", "motion": "slide"}],
-        "motions": [{"name": "slide", "times": [0.0, 0.1], "offsets": [[0, 0, 0], [0.003, 0, 0]],
-                     "angles": ["0 deg", "40 deg"], "rotation_axis": [0, 1, 0]}],
+        "sources": [
+            {
+                "kind": "cylinder_magnet",
+                "center": [0, 0, -0.0125],
+                "radius": "3 mm",
+                "length": "4 mm",
+                "motion": "slide",
+            }
+        ],
+        "iron": [
+            {
+                "kind": "needle",
+                "tip": [0, 0, 0.0],
+                "axis": [0, 0, -1],
+                "radius": "1 mm",
+                "length": "8 mm",
+                "tip_length": "2 mm",
+                "motion": "slide",
+            }
+        ],
+        "motions": [
+            {
+                "name": "slide",
+                "times": [0.0, 0.1],
+                "offsets": [[0, 0, 0], [0.003, 0, 0]],
+                "angles": ["0 deg", "40 deg"],
+                "rotation_axis": [0, 1, 0],
+            }
+        ],
         "solve": {"mesh_size": "0.2 mm"},
-    }  # fmt: skip
+    }
     spec = from_table(FieldSpec, table, "field")
     terms = build_terms(spec, comm)
     term = terms[0]

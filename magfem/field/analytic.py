@@ -244,6 +244,7 @@ def thick_coil_local(
     J = turns * current / ((r2 - r1) * length)
     d = winding_distance(r1, r2, length, rho, z)
     need = np.clip(np.ceil((r2 - r1) / np.maximum(2 * d, 1e-300)), 1, _MAX_PANELS)
+    need[d <= 0.0] = 1  # inside the winding: not resolved at any panel count
     level = np.ceil(np.log2(need)).astype(int)
     br, bz, dz_br, dz_bz = (np.zeros(len(rho)) for _ in range(4))
     for lev in np.unique(level):
