@@ -13,8 +13,8 @@ exact field of the terms:
 ``auto`` takes the first of ``uniform``, ``taylor1``, ``taylor2`` whose two
 errors are within ``tolerance``, else ``nodal`` (exact at the nodes). Points
 closer to a source than its field is resolved (inside a winding, magnet or
-iron part, nearer a winding than its quadrature resolves, within two surface
-elements of iron) are reported in a :class:`FieldResolutionWarning` on
+iron part, nearer a winding than its quadrature resolves, within one element
+of iron) are reported in a :class:`FieldResolutionWarning` on
 rank 0, as is an explicitly chosen expansion whose errors exceed the tolerance.
 """
 
@@ -146,8 +146,13 @@ def sample_points(spec: FieldSpec, workspace: np.ndarray | None) -> np.ndarray:
     return w.reshape(-1, 3)
 
 
-def choose_model(spec: FieldSpec, terms: Sequence[Term], comm: MPI.Comm, pts: np.ndarray) -> str:
-    """The model to use (``auto`` resolved); warns as the module docstring says (collective)."""
+def choose_model(
+    spec: FieldSpec, terms: Sequence[Term], comm: MPI.Comm, pts: np.ndarray
+) -> tuple[str, dict[str, dict[str, float]]]:
+    """The model to use (``auto`` resolved) and the model errors ({} when not measured).
+
+    Warns as the module docstring says (collective).
+    """
     for name, p in unresolved_points(terms, pts):
         warn(
             comm,
@@ -157,20 +162,15 @@ def choose_model(spec: FieldSpec, terms: Sequence[Term], comm: MPI.Comm, pts: np
         )
     model = "nodal" if spec.model == "fe" else spec.model
     if all(term.field.uniform for term in terms):
-        return "uniform" if model == "auto" else model
+        return ("uniform" if model == "auto" else model), {}
     if model == "nodal":
-        return model
+        return model, {}
     x0 = np.asarray(spec.expansion_point, dtype=float)
     err = model_errors(terms, comm, x0, pts, float(np.ptp(pts, axis=0).max()) or None)
     if model == "auto":
-        return next(
-            (
-                m
-                for m in ("uniform", "taylor1", "taylor2")
-                if max(err[m].values()) <= spec.tolerance
-            ),
-            "nodal",
-        )
+        tol = spec.tolerance
+        ok = [m for m in ("uniform", "taylor1", "taylor2") if max(err[m].values()) <= tol]
+        return (ok[0] if ok else "nodal"), err
     if max(err[model].values()) > spec.tolerance:
         warn(
             comm,
@@ -178,4 +178,4 @@ def choose_model(spec: FieldSpec, terms: Sequence[Term], comm: MPI.Comm, pts: np
             f"{err[model]['gradB']:.2g} in grad B over the workspace (tolerance "
             f"{spec.tolerance:g}); model 'nodal' is exact at the robot's nodes",
         )
-    return model
+    return model, err

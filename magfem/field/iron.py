@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 import ufl
 from dolfinx import fem, mesh
+from dolfinx.cpp import mesh as cpp_mesh
 from dolfinx.fem import petsc
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -209,6 +210,10 @@ class _Problem:
         self._boundary(center, r_air, q)
         self.chi = air_indicator(msh, data.cell_tags, self.tags)
         self.size = _size(parts)[1]
+        self.hcell = fem.Function(self.chi.function_space, name="cell_size")
+        tdim = msh.topology.dim
+        n = msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts
+        self.hcell.x.array[:] = cpp_mesh.h(msh._cpp_object, tdim, np.arange(n, dtype=np.int32))
 
     def _coefficients(self, parts: Sequence[IronSpec], cell_tags: Any) -> None:
         Q = fem.functionspace(self.msh, ("DG", 0))
@@ -486,7 +491,7 @@ def solve_iron(
                 center=center,
                 r_air=r_air,
                 parts=parts,
-                h_iron=h_iron,
+                cell_size=P.hcell,
                 axis=frame,
                 hessian_step=step,
                 name=f"{name} reaction to {load.name}",

@@ -61,7 +61,7 @@ def create_field_model(
     box = w if w is not None and w.shape == (2, 3) else workspace_box(spec)
     terms = as_terms(sources) if sources is not None else build_terms(spec, comm, workspace=box)
     x0 = np.asarray(spec.expansion_point, dtype=float)
-    name = choose_model(spec, terms, comm, sample_points(spec, w))
+    name, _ = choose_model(spec, terms, comm, sample_points(spec, w))
     if name == "uniform":
         return UniformFieldModel(terms, comm, x0)
     if name in ("taylor1", "taylor2"):

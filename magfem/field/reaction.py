@@ -57,7 +57,7 @@ class ReactionField(SourceField):
         iron_field: total B in the iron (DG vector Function; (B_r, B_z) if axisymmetric), T.
         moment: dipole moment of the magnetised iron (3,), A m².
         center: centre of the air region (3,), m; r_air: its radius, m.
-        parts: the iron parts (for masks); h_iron: element size at their surface, m.
+        parts: the iron parts (for masks); cell_size: DG0 element size on the mesh, m.
         axis: the symmetry axis of an axisymmetric solve, or None in 3D.
         hessian_step: step (m) of the finite differences of ∇B for ∇∇B.
         info: numbers of the solve (dofs, iterations, timings) for reports.
@@ -74,7 +74,7 @@ class ReactionField(SourceField):
         center: np.ndarray,
         r_air: float,
         parts: Sequence[IronSpec],
-        h_iron: float,
+        cell_size: Any,
         axis: AxisFrame | None,
         hessian_step: float,
         name: str,
@@ -86,7 +86,7 @@ class ReactionField(SourceField):
         self.center = np.asarray(center, dtype=float)
         self.r_air = float(r_air)
         self.parts = list(parts)
-        self.h_iron = float(h_iron)
+        self.cell_size = cell_size
         self.axis = axis
         self.hessian_step = float(hessian_step)
         self.name = name
@@ -138,8 +138,14 @@ class ReactionField(SourceField):
         return np.any([p.inside(pts) for p in self.parts], axis=0)
 
     def unresolved(self, points: np.ndarray) -> np.ndarray:
-        """Points within two surface elements of the iron (recovered ∇B less accurate there)."""
+        """Points within one element (its longest edge) of the iron, where the recovery of ∇B
+        is one-sided.
+
+        Collective (the element size is looked up on the distributed mesh).
+        """
         pts = np.atleast_2d(points).reshape(-1, 3)
-        h = 2 * self.h_iron
+        (h,), found = self._eval([self.cell_size], self._mesh_points(pts))
+        h = np.where(found, h[:, 0], 0.0)[:, None]
         steps = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
+        steps = steps / np.maximum(np.linalg.norm(steps, axis=1), 1.0)[:, None]
         return np.any([self.inside(pts + h * s) for s in steps], axis=0)

@@ -55,9 +55,10 @@ def _report_solves(terms: list[Term], comm: MPI.Comm) -> None:
 
 def _write_models(spec: Any, terms: list[Term], outdir: Path, comm: MPI.Comm) -> Path:
     x0 = np.asarray(spec.expansion_point, dtype=float)
-    pts = workspace_points(x0, spec.workspace_size)
-    err = model_errors(terms, comm, x0, pts, spec.workspace_size)
-    chosen = choose_model(spec, terms, comm, sample_points(spec, None))
+    chosen, err = choose_model(spec, terms, comm, sample_points(spec, None))
+    if not err:
+        pts = workspace_points(x0, spec.workspace_size)
+        err = model_errors(terms, comm, x0, pts, spec.workspace_size)
     path = outdir / "field_models.csv"
     if comm.rank == 0:
         lines = ["model,B_error,gradB_error,chosen"]
