@@ -13,12 +13,16 @@ import math
 import numpy as np
 import pytest
 from field_reference import block_by_charges, sheet_by_loops, thick_coil_by_loops
+from mpi4py import MPI
 from scipy.integrate import quad
 from scipy.special import ellipe, ellipk
 
+from magfem.config import from_table
 from magfem.field import analytic as an
+from magfem.field.build import build_terms, coil_current
 from magfem.field.placement import Placement, frame, rotation
 from magfem.field.source import BlockMagnetField, CoilField, CylinderMagnetField
+from magfem.field.spec import FieldSpec
 
 Z = np.array([0.0, 0.0, 1.0])
 PAIR = dict(r1=0.025, r2=0.0575, length=0.035, turns=270, current=1.0)
@@ -200,3 +204,19 @@ def test_rigid_placement_moves_and_turns_the_field():
     Bm, Gm = moved.field_and_gradient(pts)
     np.testing.assert_allclose(P.vectors(B), Bm, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(P.tensors(G), Gm, rtol=1e-11, atol=1e-12)
+
+
+def test_coil_pair_defaults_centre_field_and_uniformity():
+    """The experiments' coil pair (defaults): 3.713 mT/A at the centre, |B| within 10 % at 10 mm."""
+    spec = from_table(FieldSpec, {"sources": [{"kind": "coil_pair", "flux_density": "10 mT"}]}, "f")
+    (term,) = build_terms(spec, MPI.COMM_SELF)
+    assert coil_current(spec.sources[0]) == pytest.approx(2.693, abs=5e-4)
+    b0 = term.field.flux_density(np.zeros((1, 3)))[0]
+    np.testing.assert_allclose(b0, [0, 0, 0.01], atol=1e-15)
+    per_amp = 0.01 / coil_current(spec.sources[0])
+    assert per_amp == pytest.approx(3.713e-3, abs=5e-7)  # 1.375e-5 T per ampere-turn of one coil
+    g = np.linspace(-0.01, 0.01, 5)
+    P = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    nb = np.linalg.norm(term.field.flux_density(P), axis=1)
+    # |B| varies by 10.15 % over the ±10 mm cube (its corners are 17 mm from the centre)
+    assert (nb.max() - nb.min()) / nb[len(P) // 2] == pytest.approx(0.1015, abs=5e-4)

@@ -8,7 +8,7 @@ Layers (each a module):
   functions and rigid keyframed motions.
 * :mod:`~magfem.field.analytic`: closed-form fields of coils and magnets and
   their gradients; :mod:`~magfem.field.source`: those fields placed in 3D.
-* :mod:`~magfem.field.iron` (with :mod:`~magfem.field.reaction`,
+* :mod:`~magfem.field.iron` (with :mod:`~magfem.field.iron_mesh`, :mod:`~magfem.field.reaction`,
   :mod:`~magfem.field.recovery`, :mod:`~magfem.field.points`): the FE
   reaction field of soft-iron parts.
 * :mod:`~magfem.field.build`: the case table → terms (field × waveform × motion).

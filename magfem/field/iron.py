@@ -47,15 +47,14 @@ from petsc4py import PETSc
 
 from magfem.config import CaseError
 from magfem.field.analytic import MU0
+from magfem.field.iron_mesh import build_iron_mesh, common_axis, iron_size
 from magfem.field.iron_spec import IronSpec
 from magfem.field.reaction import AxisFrame, ReactionField
 from magfem.field.recovery import Projector, air_indicator, pack
-from magfem.field.source import CoilField, CylinderMagnetField, SourceField, SumField, UniformField
+from magfem.field.source import SourceField
 from magfem.field.spec import SolveSpec
-from magfem.geometry.gmshio import build_mesh
-from magfem.geometry.sources import axisymmetric_builder, solid_builder
 
-__all__ = ["common_axis", "solve_iron"]
+__all__ = ["solve_iron"]
 
 _KRYLOV = {
     "ksp_type": "cg",
@@ -65,116 +64,9 @@ _KRYLOV = {
     "pc_type": "gamg",
     "pc_gamg_type": "agg",
     "mg_levels_ksp_type": "chebyshev",
+    "mg_levels_pc_type": "jacobi",
+    "pc_gamg_esteig_ksp_type": "cg",  # eigenvalue bounds of the SPD operator by CG, not GMRES
 }
-
-
-def _symmetry(field: SourceField) -> list[tuple[np.ndarray | None, np.ndarray]] | None:
-    """(point on the axis or None, axis) of each part of a load; None if not axisymmetric."""
-    if isinstance(field, SumField):
-        out: list[tuple[np.ndarray | None, np.ndarray]] = []
-        for f in field.fields:
-            s = _symmetry(f)
-            if s is None:
-                return None
-            out += s
-        return out
-    if isinstance(field, UniformField):
-        n = float(np.linalg.norm(field.vector))
-        return [(None, field.vector / n)] if n > 0 else []
-    if isinstance(field, CoilField | CylinderMagnetField):
-        return [(field.center, field.Q[:, 2])]
-    return None
-
-
-def common_axis(parts: Sequence[IronSpec], loads: Sequence[SourceField]) -> AxisFrame | None:
-    """The line about which all iron parts and loads are axisymmetric, or None."""
-    lines: list[tuple[np.ndarray | None, np.ndarray]] = []
-    for f in loads:
-        s = _symmetry(f)
-        if s is None:
-            return None
-        lines += s
-    axes = [a for _, a in lines]
-    axes += [np.asarray(p.axis, dtype=float) for p in parts if hasattr(p, "axis")]
-    points = [o for o, _ in lines if o is not None] + [p.tip_point() for p in parts]
-    if not points:
-        return None
-    frame = AxisFrame(points[0], axes[0] if axes else np.array([0.0, 0.0, 1.0]))
-    for o, a in lines:
-        if abs(abs(a @ frame.axis) - 1.0) > 1e-9:
-            return None
-        if o is not None and frame.meridian(o[None, :])[0, 0] > 1e-9 * (1.0 + np.abs(o).max()):
-            return None
-    if any(p.profile(frame.origin, frame.axis, "x") is None for p in parts):
-        return None
-    return frame
-
-
-def _size(parts: Sequence[IronSpec]) -> tuple[np.ndarray, float]:
-    """Centre (3,) and bounding radius (m) of the iron parts."""
-    pts = np.vstack([p.sample_points() for p in parts])
-    c = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
-    return c, float(np.linalg.norm(pts - c, axis=1).max())
-
-
-def _build(
-    parts: Sequence[IronSpec],
-    frame: AxisFrame | None,
-    solve: SolveSpec,
-    comm: MPI.Comm,
-    workspace: np.ndarray | None,
-) -> tuple[Any, np.ndarray, float, float]:
-    """Mesh the iron in its air region: (MeshData, centre (3,), r_air, h_iron)."""
-    c, s = _size(parts)
-    if frame is not None:  # centre the half-disk on the axis
-        c = frame.origin + frame.axis * float((c - frame.origin) @ frame.axis)
-    r_air = solve.air_factor * s
-    box = None
-    if workspace is not None:
-        lo, hi = np.asarray(workspace, dtype=float)
-        corners = np.array(
-            [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-        )
-        r_air = max(r_air, 1.2 * float(np.linalg.norm(corners - c, axis=1).max()))
-        box = np.array([lo, hi])
-        if frame is not None:
-            m = frame.meridian(corners)
-            box = np.array([[0.0, m[:, 1].min(), 0.0], [m[:, 0].max(), m[:, 1].max(), 0.0]])
-    h_iron = solve.mesh_size or min(
-        min(p.min_feature() for p in parts) / 2, s / (20 if frame is not None else 6)
-    )
-    h_ws = solve.workspace_mesh_size if box is not None else None
-    order = 2 if solve.curved else 1
-    names = [f"iron_{k + 1}" for k in range(len(parts))]
-    if frame is None:
-        builder = solid_builder(
-            [p.body(n) for p, n in zip(parts, names, strict=True)],
-            r_air,
-            center=tuple(c),
-            h_iron=h_iron,
-            grading=solve.grading,
-            workspace=box,
-            h_workspace=h_ws,
-            order=order,
-        )
-        data = build_mesh(builder, comm, gdim=3, name="iron")
-    else:
-        z_c = float((c - frame.origin) @ frame.axis)
-        profiles = [
-            p.profile(frame.origin, frame.axis, n) for p, n in zip(parts, names, strict=True)
-        ]
-        builder = axisymmetric_builder(
-            [q for q in profiles if q is not None],
-            r_air,
-            z_center=z_c,
-            h_iron=h_iron,
-            grading=solve.grading,
-            workspace=box,
-            h_workspace=h_ws,
-            order=order,
-        )
-        data = build_mesh(builder, comm, gdim=2, name="iron_rz")
-    return data, c, r_air, h_iron
 
 
 class _Problem:
@@ -209,7 +101,7 @@ class _Problem:
         self._coefficients(parts, data.cell_tags)
         self._boundary(center, r_air, q)
         self.chi = air_indicator(msh, data.cell_tags, self.tags)
-        self.size = _size(parts)[1]
+        self.size = iron_size(parts)[1]
         self.hcell = fem.Function(self.chi.function_space, name="cell_size")
         tdim = msh.topology.dim
         n = msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts
@@ -304,10 +196,16 @@ class _Linear:
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]
         petsc.set_bc(b, self.bcs)
         self.ksp.solve(b, u.x.petsc_vec)
-        u.x.scatter_forward()
-        b.destroy()
         reason = int(self.ksp.getConvergedReason())  # type: ignore[call-overload]
         self.iterations = max(self.iterations, int(self.ksp.getIterationNumber()))
+        if reason <= 0:  # CG + GAMG failed: a direct solve instead (slower, robust)
+            self.ksp.setType("preonly")
+            self.ksp.getPC().setType("lu")
+            self.ksp.getPC().setFactorSolverType("mumps")
+            self.ksp.solve(b, u.x.petsc_vec)
+            reason = int(self.ksp.getConvergedReason())  # type: ignore[call-overload]
+        u.x.scatter_forward()
+        b.destroy()
         if reason <= 0:
             raise RuntimeError(
                 f"{self.prefix}: linear solve failed (KSP converged reason {reason})"
@@ -420,6 +318,16 @@ def _iron_field(P: _Problem, u: Any, g: Any) -> tuple[Any, np.ndarray]:
     return Bi, 2 * math.pi * m[1] * P.frame.axis
 
 
+def _solve_load(P: _Problem, linear: _Linear, load: SourceField, name: str) -> tuple[Any, Any, int]:
+    """(u, g, Newton iterations) of one load: linear solve, then Newton if the iron saturates."""
+    Bs = P.source(load)
+    g = _fit_source_potential(P, Bs, name)
+    u = fem.Function(P.V, name="u")
+    linear.solve(ufl.rhs(_residual(P, ufl.TrialFunction(P.V), g, Bs, linear=True)), u)
+    its = 0 if P.linear else _solve_nonlinear(P, u, g, Bs, name)
+    return u, g, its
+
+
 def solve_iron(
     parts: Sequence[IronSpec],
     loads: Sequence[SourceField],
@@ -451,38 +359,26 @@ def solve_iron(
             "axisymmetric",
             "the iron parts and sources do not share one symmetry axis",
         )
-    data, center, r_air, h_iron = _build(parts, frame, solve, comm, workspace)
+    data, center, r_air, h_iron = build_iron_mesh(parts, frame, solve, comm, workspace)
     P = _Problem(data, parts, frame, center, r_air, solve)
-    t1 = time.perf_counter()
-    ndofs = P.V.dofmap.index_map.size_global
     step = solve.hessian_step or (
         float(np.max(workspace[1] - workspace[0])) / 10 if workspace is not None else 2 * h_iron
     )
-    out, its = [], 0
     trial = ufl.TrialFunction(P.V)
     zero, zero_vec = fem.Constant(P.msh, 0.0), fem.Constant(P.msh, np.zeros(P.gdim))
     linear = _Linear(
         ufl.lhs(_residual(P, trial, zero, zero_vec, linear=True)), P.bcs, f"magfem_{name}_u_"
     )
+    info = {
+        "dofs": P.V.dofmap.index_map.size_global,
+        "mesh_s": time.perf_counter() - t0,
+        "h_iron": h_iron,
+        "r_air": r_air,
+    }
+    out = []
     for k, load in enumerate(loads):
-        Bs = P.source(load)
-        g = _fit_source_potential(P, Bs, f"{name}{k}")
-        u = fem.Function(P.V, name="u")
-        L = ufl.rhs(_residual(P, trial, g, Bs, linear=True))
-        linear.solve(L, u)
-        if not P.linear:
-            its = _solve_nonlinear(P, u, g, Bs, f"{name}{k}")
-        t2 = time.perf_counter()
+        u, g, its = _solve_load(P, linear, load, f"{name}{k}")
         Bi, moment = _iron_field(P, u, g)
-        info = {
-            "dofs": ndofs,
-            "cg_iterations": linear.iterations,
-            "newton_iterations": its,
-            "mesh_s": t1 - t0,
-            "solve_s": t2 - t1,
-            "h_iron": h_iron,
-            "r_air": r_air,
-        }
         out.append(
             ReactionField(
                 _recover(P, u, f"{name}{k}"),
@@ -495,9 +391,13 @@ def solve_iron(
                 axis=frame,
                 hessian_step=step,
                 name=f"{name} reaction to {load.name}",
-                info=info,
+                info=info
+                | {
+                    "cg_iterations": linear.iterations,
+                    "newton_iterations": its,
+                    "total_s": time.perf_counter() - t0,
+                },
             )
         )
-        info["total_s"] = time.perf_counter() - t0
     linear.destroy()
     return out
