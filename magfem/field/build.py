@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from mpi4py import MPI
 
-from magfem.field import analytic as an
+import magfem.field.analytic as an
 from magfem.field.iron import solve_iron
 from magfem.field.placement import Trajectory
 from magfem.field.source import (

@@ -17,11 +17,7 @@ import numpy as np
 from dolfinx import geometry
 from mpi4py import MPI
 
-__all__ = ["OutsideDomainError", "PointEvaluator"]
-
-
-class OutsideDomainError(ValueError):
-    """Points lie outside the mesh (e.g. outside a field solve's air region)."""
+__all__ = ["PointEvaluator"]
 
 
 class PointEvaluator:

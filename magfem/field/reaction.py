@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from magfem.field import analytic as an
+import magfem.field.analytic as an
 from magfem.field.iron_spec import IronSpec
 from magfem.field.points import PointEvaluator
 from magfem.field.source import SourceField

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from magfem.field import analytic as an
+import magfem.field.analytic as an
 from magfem.field.placement import frame
 
 __all__ = [
