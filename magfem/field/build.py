@@ -169,7 +169,7 @@ def build_terms(
     fields = [closed_form_field(s, f"source{i}") for i, s in enumerate(spec.sources)]
     waves = [_waveform(s, i) for i, s in enumerate(spec.sources)]
     trajs = [trajectory(spec.motion(getattr(s, "motion", ""))) for s in spec.sources]
-    if not spec.iron:
+    if not spec.iron or not fields:  # iron without sources is not magnetised
         return [Term(f, w, t) for f, w, t in zip(fields, waves, trajs, strict=True)]
     group = trajectory(spec.motion(spec.iron[0].motion))
     box = _workspace_in_group(workspace if workspace is not None else workspace_box(spec), group)

@@ -176,11 +176,14 @@ class TaylorFieldModel(FieldModel):
         self.order = order
         self.name = "uniform" if order == 0 else f"taylor{order}"
         self.x0 = np.asarray(x0, dtype=float).reshape(3)
-        self._cache: dict[int, tuple[np.ndarray, ...]] = {}
+        self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._last: tuple[float, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] | None = None
         self._c: dict[str, Any] = {}
 
     def coefficients(self, t: float) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Per term (B (3,), ∇B (3, 3), ∇∇B (3, 3, 3)) at x0 and time t (collective)."""
+        if self._last is not None and self._last[0] == t:
+            return self._last[1]
         out = []
         for k, term in enumerate(self.terms):
             if term.trajectory is None and k in self._cache:
@@ -191,7 +194,8 @@ class TaylorFieldModel(FieldModel):
             if term.trajectory is None:
                 self._cache[k] = c
             out.append(c)
-        return out  # type: ignore[return-value]
+        self._last = (t, out)
+        return out
 
     def bind(self, domain: Any) -> None:
         self._c = {
