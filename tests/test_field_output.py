@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
+import pytest
 import tomli_w
 from field_reference import thick_coil_by_loops
 
-from magfem.case import parse_field_case
+from magfem.case import Case, FieldCase, parse_field_case
 from magfem.cli import main
-from magfem.config import from_table
+from magfem.config import CaseError, from_table
 from magfem.field import analytic as an
 from magfem.field.run import run_field
 from magfem.field.spec import FieldSpec
@@ -119,3 +121,13 @@ def test_source_grids_draw_iron_parts():
         b = np.array(item.grid.bounds).reshape(3, 2)
         np.testing.assert_allclose(b[:, 0], pts.min(axis=0), atol=1e-4)  # rod ring: 8 samples
         np.testing.assert_allclose(b[:, 1], pts.max(axis=0), atol=1e-4)
+
+
+@pytest.mark.serial
+def test_field_case_with_and_without_robot(repo):
+    full = parse_field_case(tomllib.loads((repo / "cases" / "one_arm_trapezoid.toml").read_text()))
+    assert isinstance(full, Case)  # with [robot]: the whole case, validated as by magfem run
+    only = parse_field_case({"name": "f", "field": FIELD, "mesh": {"size": "1 mm"}})
+    assert isinstance(only, FieldCase) and len(only.field.sources) == 2
+    with pytest.raises(CaseError, match=r"mesh\.size"):  # tables present are still validated
+        parse_field_case({"name": "f", "field": FIELD, "mesh": {"size": "-1 mm"}})
