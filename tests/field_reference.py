@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 from scipy.optimize import brentq
+from scipy.special import eval_legendre, lpmv
 
 from magfem.field import analytic as an
 
@@ -94,3 +95,50 @@ def iron_sphere(mu_r: float, b0: float, saturation: float | None = None) -> tupl
     h0 = b0 / MU0
     h = brentq(lambda h: h + (law(h) / MU0 - h) / 3 - h0, 0.0, h0, xtol=1e-14 * h0, rtol=1e-15)
     return law(h), law(h) / MU0 - h
+
+
+def sphere_in_axial_field(a, mu_r, hz, rho, n_max=40, n_fft=128):
+    """Reaction and interior field of a linear sphere (centre 0, radius a) in an axisymmetric field.
+
+    The source is given by its on-axis H_z(z) (A/m), ``hz`` accepting complex z and analytic in
+    |z| ≤ ``rho``. Its potential about the centre is φ_s = Σ a_n r^n P_n(cos θ) with
+    a_n = −h_{n−1}/n (h_k the Taylor coefficients of H_z, from an FFT on the circle |z| = rho);
+    continuity of φ and of µ ∂φ/∂r at r = a gives the reaction outside, Σ b_n r^−(n+1) P_n with
+    b_n = a^(2n+1) a_n n (1 − µr)/(n µr + n + 1), and the total potential inside,
+    Σ c_n r^n P_n with c_n = a_n + b_n a^−(2n+1). Returns (reaction B(points), interior B(points)).
+    """
+    k = np.arange(n_fft)
+    vals = hz(rho * np.exp(2j * math.pi * k / n_fft))
+    h = (np.fft.fft(vals) / n_fft).real / rho**k
+    n = np.arange(1, n_max + 1)
+    an = -h[n - 1] / n
+    bn = a ** (2 * n + 1) * an * n * (1 - mu_r) / (n * mu_r + n + 1)
+    cn = an + bn * a ** (-(2 * n + 1))
+
+    def field(points, coef, power, radial, scale):
+        p = np.atleast_2d(points)
+        r = np.linalg.norm(p, axis=1)
+        ct = p[:, 2] / r
+        rho_xy = np.hypot(p[:, 0], p[:, 1])
+        Hr, Ht = np.zeros(len(p)), np.zeros(len(p))
+        for nn, c in zip(n, coef, strict=True):
+            rp = r ** power(nn)
+            Hr += radial(nn) * c * rp / r * eval_legendre(nn, ct)
+            Ht -= c * rp / r * lpmv(1, nn, ct)  # −(1/r) ∂/∂θ of c r^k P_n(cos θ)
+        st = rho_xy / r
+        safe = np.where(rho_xy > 0, rho_xy, 1.0)
+        cx, cy = (
+            np.where(rho_xy > 0, p[:, 0] / safe, 1.0),
+            np.where(rho_xy > 0, p[:, 1] / safe, 0.0),
+        )
+        Hrho = Hr * st + Ht * ct
+        Hz = Hr * ct - Ht * st
+        return scale * np.column_stack([Hrho * cx, Hrho * cy, Hz])
+
+    def reaction(points):
+        return field(points, bn, lambda nn: -(nn + 1), lambda nn: nn + 1, MU0)
+
+    def interior(points):
+        return field(points, cn, lambda nn: nn, lambda nn: -nn, MU0 * mu_r)
+
+    return reaction, interior
