@@ -41,6 +41,7 @@ from magfem.field.waveforms import Waveform, build_waveform
 
 __all__ = [
     "Term",
+    "as_terms",
     "build_terms",
     "closed_form_field",
     "coil_current",
