@@ -28,7 +28,9 @@ be overridden from the command line with ``--set table.key=value``.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import tomllib
+import typing
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from dataclasses import field as _field
@@ -38,7 +40,7 @@ from typing import Any
 import tomli_w
 
 from magfem import material
-from magfem.config import MISSING, CaseError, build_fields, to_table
+from magfem.config import MISSING, CaseError, build_fields, check_keys, from_table, to_table
 from magfem.field.spec import FieldSpec
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 from magfem.mechanics.contacts import ContactKindSpec
@@ -52,7 +54,16 @@ from magfem.mechanics.spec import (
     TimeSpec,
 )
 
-__all__ = ["Case", "apply_overrides", "load_case", "parse_case", "write_resolved_case"]
+__all__ = [
+    "Case",
+    "FieldCase",
+    "apply_overrides",
+    "load_case",
+    "load_field_case",
+    "parse_case",
+    "parse_field_case",
+    "write_resolved_case",
+]
 
 
 @dataclass(frozen=True)
@@ -159,13 +170,60 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
     return out
 
 
-def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
-    """Read, override and validate a case file.
+@dataclass(frozen=True)
+class FieldCase:
+    """What ``magfem field`` needs from a case without ``[robot]``: its name and ``[field]``."""
 
-    Raises:
-        CaseError: with the file name in the message, for every bad input
-            (missing file, TOML syntax, unknown key, unit, range, ...).
+    name: str
+    field: FieldSpec = _field(default_factory=FieldSpec)
+    description: str = ""
+
+
+def parse_field_case(data: Mapping[str, Any]) -> Case | FieldCase:
+    """A :class:`Case` if the document has ``[robot]``, else a :class:`FieldCase`.
+
+    Without ``[robot]`` the other tables that are present are still validated.
     """
+    if "robot" in data:
+        return parse_case(data)
+    check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
+    hints = typing.get_type_hints(Case)
+    for f in dataclasses.fields(Case):
+        raw = data.get(f.name)
+        if raw is None or f.name in ("name", "description", "field"):
+            continue
+        tp = hints[f.name]
+        if dataclasses.is_dataclass(tp):
+            if not isinstance(raw, Mapping):
+                raise CaseError(f.name, raw, "must be a table")
+            from_table(tp, raw, f.name)  # type: ignore[arg-type]
+            continue
+        item = typing.get_args(tp)[0]  # an array of tables
+        if not isinstance(raw, list):
+            raise CaseError(f.name, raw, "must be an array of tables")
+        for i, entry in enumerate(raw):
+            if not isinstance(entry, Mapping):
+                raise CaseError(f"{f.name}[{i}]", entry, "must be a table")
+            from_table(item, entry, f"{f.name}[{i}]")
+    for key in ("name", "description"):
+        raw = data.get(key, "")
+        if not isinstance(raw, str) or (key == "name" and not raw.strip()):
+            raise CaseError(key, raw or MISSING, "must be a non-empty string")
+    field = from_table(FieldSpec, data.get("field", {}), "field")
+    return FieldCase(name=data["name"], field=field, description=data.get("description", ""))
+
+
+def load_field_case(path: str | Path, overrides: Iterable[str] = ()) -> Case | FieldCase:
+    """Read, override and validate a case file for ``magfem field`` (``[robot]`` optional)."""
+    data, source = _read(path, overrides)
+    try:
+        return parse_field_case(data)
+    except CaseError as err:
+        raise err.with_source(source) from None
+
+
+def _read(path: str | Path, overrides: Iterable[str]) -> tuple[dict[str, Any], str]:
+    """The parsed, overridden TOML document of ``path`` and its name for messages."""
     path = Path(path)
     source = str(path)
     if not path.is_file():
@@ -181,12 +239,26 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
     except tomllib.TOMLDecodeError as err:
         raise CaseError("(file)", MISSING, f"TOML syntax error: {err}", source) from None
     try:
-        return parse_case(apply_overrides(data, overrides))
+        return apply_overrides(data, overrides), source
     except CaseError as err:
         raise err.with_source(source) from None
 
 
-def write_resolved_case(case: Case, path: str | Path) -> Path:
+def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
+    """Read, override and validate a case file.
+
+    Raises:
+        CaseError: with the file name in the message, for every bad input
+            (missing file, TOML syntax, unknown key, unit, range, ...).
+    """
+    data, source = _read(path, overrides)
+    try:
+        return parse_case(data)
+    except CaseError as err:
+        raise err.with_source(source) from None
+
+
+def write_resolved_case(case: Case | FieldCase, path: str | Path) -> Path:
     """Write the case with all defaults filled in, SI numbers, as TOML."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

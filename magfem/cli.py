@@ -24,9 +24,10 @@ from pathlib import Path
 from mpi4py import MPI
 
 from magfem import __version__
-from magfem.case import Case, load_case, write_resolved_case
+from magfem.case import Case, FieldCase, load_case, load_field_case, write_resolved_case
 from magfem.config import CaseError
 from magfem.field.run import run_field
+from magfem.geometry.export import export_robot_mesh
 from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.parallel import rank0_print
 from magfem.pipeline import simulate
@@ -43,7 +44,7 @@ def _say(comm: MPI.Comm, *args: object) -> None:
     rank0_print(*args, comm=comm)
 
 
-def _outdir(args: argparse.Namespace, case: Case) -> Path:
+def _outdir(args: argparse.Namespace, case: Case | FieldCase) -> Path:
     return Path(args.out) if args.out else Path("output") / case.name
 
 
@@ -81,14 +82,12 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     _say(comm, "groups    " + ", ".join(sorted(rm.groups)))
     _say(comm, f"wrote     {msh}")
     if args.format != "msh":
-        from magfem.geometry.export import export_robot_mesh
-
         path = export_robot_mesh(msh, args.format, comm, strip=rm.model == "strip")
         _say(comm, f"wrote     {path}")
     return 0
 
 
-def _cmd_field(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+def _cmd_field(args: argparse.Namespace, case: Case | FieldCase, comm: MPI.Comm) -> int:
     outdir = _outdir(args, case)
     _write_resolved(case, outdir, comm)
     written = run_field(case, outdir, comm)
@@ -110,7 +109,7 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     return 0
 
 
-def _write_resolved(case: Case, outdir: Path, comm: MPI.Comm) -> Path:
+def _write_resolved(case: Case | FieldCase, outdir: Path, comm: MPI.Comm) -> Path:
     path = outdir / "case.resolved.toml"
     if comm.rank == 0:
         write_resolved_case(case, path)
@@ -162,7 +161,7 @@ def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
     return 0
 
 
-_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "field": _cmd_field, "run": _cmd_run}
+_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "run": _cmd_run}
 _DRIVERS = {"sweep": _cmd_sweep, "report": _cmd_report}
 
 
@@ -243,6 +242,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command in _DRIVERS:
             return _DRIVERS[args.command](args, comm)
+        if args.command == "field":  # [robot], [mesh], [material] optional
+            return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
         case = load_case(args.case, args.overrides)
         return _COMMANDS[args.command](args, case, comm)
     except CaseError as err:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
+from tqdm import tqdm
 
 __all__ = ["is_root", "progress", "rank0_print", "shared_directory"]
 
@@ -35,7 +36,6 @@ def progress(total: float, *, desc: str, unit: str = "", comm: MPI.Comm = MPI.CO
     them. Off a terminal (CI, redirected logs) the bar prints a line at most
     every 10 s, so long runs still show progress.
     """
-    from tqdm import tqdm
 
     class _Bar(tqdm):  # type: ignore[misc]
         # a postfix change must not force a redraw: off a terminal the bar

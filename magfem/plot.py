@@ -25,8 +25,11 @@ import pyvista
 from dolfinx import plot
 from mpi4py import MPI
 
+from magfem.case import parse_case
 from magfem.config import from_table
+from magfem.field.placement import frame
 from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
+from magfem.geometry.sources import Ball, Box, Frustum
 from magfem.geometry.spec import SHAPES, MeshSpec, RobotSpec
 
 __all__ = ["MeshItem", "plot_mesh_groups", "plot_robot", "plot_scene", "robot_grid", "source_grids"]
@@ -182,27 +185,41 @@ def plot_robot(
     )
 
 
-def source_grids(sources: Sequence[Any]) -> list[MeshItem]:
-    """Solid pictures of the field sources of a ``[field]`` table (rank-local, no MPI).
+def _solid_grid(part: Any) -> Any:
+    """A pyvista surface of one gmsh primitive of :mod:`magfem.geometry.sources`."""
+    if isinstance(part, Ball):
+        return pyvista.Sphere(radius=part.radius, center=part.center)
+    if isinstance(part, Box):
+        a, b, c = (0.5 * v for v in part.size)
+        box = pyvista.Box(bounds=(-a, a, -b, b, -c, c))
+        box.points = box.points @ np.asarray(part.rotation).T + np.asarray(part.center)
+        return box
+    if isinstance(part, Frustum):
+        base, vec = np.asarray(part.base), np.asarray(part.vector)
+        R = frame(vec / np.linalg.norm(vec))
+        phi = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+        ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)]) @ R.T
+        pts = np.vstack([base + max(part.r0, 1e-9) * ring, base + vec + max(part.r1, 1e-9) * ring])
+    else:
+        pts = np.asarray(part.corners)
+    return pyvista.PolyData(pts).delaunay_3d().extract_surface(algorithm="dataset_surface")
+
+
+def source_grids(sources: Sequence[Any], iron: Sequence[Any] = ()) -> list[MeshItem]:
+    """Solid pictures of the field sources and iron parts of a ``[field]`` table (no MPI).
 
     Coils and coil pairs are drawn as annular cylinders (their winding
     cross-section), cylinder magnets as cylinders, block magnets as boxes,
-    each placed by its ``center`` and ``axis``. Uniform sources have no body.
+    each placed by its ``center`` and ``axis``; iron parts (steel blue) by
+    their shapes. Uniform sources have no body.
     """
-    import pyvista
-
-    from magfem.field.analytic import frame_matrix
-
     items: list[MeshItem] = []
     for i, src in enumerate(sources):
-        kind = src.kind
-        if kind == "uniform":
+        if src.kind == "uniform":
             continue
-        center = np.asarray(src.center, dtype=float)
-        axis = np.asarray(src.axis, dtype=float)
-        axis = axis / np.linalg.norm(axis)
-        if kind in ("coil", "coil_pair"):
-            offsets = [0.0] if kind == "coil" else [-src.separation / 2, src.separation / 2]
+        center, axis = np.asarray(src.center, dtype=float), np.asarray(src.unit_axis)
+        if src.kind in ("coil", "coil_pair"):
+            offsets = [0.0] if src.kind == "coil" else [-src.separation / 2, src.separation / 2]
             for k, off in enumerate(offsets):
                 grid = pyvista.CylinderStructured(
                     radius=np.linspace(src.inner_radius, src.outer_radius, 2),
@@ -212,25 +229,20 @@ def source_grids(sources: Sequence[Any]) -> list[MeshItem]:
                     theta_resolution=64,
                     z_resolution=2,
                 )
-                items.append(
-                    MeshItem(
-                        grid,
-                        f"{kind} {i} winding {k + 1}",
-                        "#b87333",
-                        opacity=0.35,
-                        show_edges=False,
-                    )
-                )
-        elif kind == "cylinder_magnet":
+                label = f"{src.kind} {i} winding {k + 1}"
+                items.append(MeshItem(grid, label, "#b87333", opacity=0.35, show_edges=False))
+        elif src.kind == "cylinder_magnet":
             grid = pyvista.Cylinder(
                 center=center, direction=axis, radius=src.radius, height=src.length, resolution=64
             )
             items.append(MeshItem(grid, f"magnet {i}", "#708090", show_edges=False))
-        elif kind == "block_magnet":
-            a, b, c = (0.5 * v for v in src.size)
-            box = pyvista.Box(bounds=(-a, a, -b, b, -c, c))
-            box.points = box.points @ frame_matrix(axis, src.roll).T + center
-            items.append(MeshItem(box, f"magnet {i}", "#708090", show_edges=False))
+        elif src.kind == "block_magnet":
+            rot = tuple(map(tuple, frame(axis, src.roll)))
+            grid = _solid_grid(Box(tuple(src.center), tuple(src.size), rot))
+            items.append(MeshItem(grid, f"magnet {i}", "#708090", show_edges=False))
+    for k, part in enumerate(iron):
+        grid = pyvista.merge([_solid_grid(p) for p in part.body(f"iron_{k + 1}").parts])
+        items.append(MeshItem(grid, f"iron {k} ({part.kind})", "#4682b4", show_edges=False))
     return items
 
 
@@ -245,13 +257,10 @@ def plot_scene(
     grid = None
     items: list[MeshItem] = []
     if comm.rank == 0:
-        from magfem.geometry.robot_mesh import create_robot_mesh
-        from magfem.geometry.spec import MeshSpec
-
         rm = create_robot_mesh(case.robot, MeshSpec(size=case.robot.min_feature / 4), MPI.COMM_SELF)
         grid = robot_grid(rm, MPI.COMM_SELF)
         items = [
-            *source_grids(case.field.sources),
+            *source_grids(case.field.sources, case.field.iron),
             MeshItem(grid, label="robot", color="#d62728", show_edges=False),
         ]
     return plot_mesh_groups(path, items, title=title or case.name, view="iso", comm=comm)
@@ -259,8 +268,6 @@ def plot_scene(
 
 def _scene_case() -> Any:
     """The coil pair of the experiments (axis x) with the default trapezoid at its centre."""
-    from magfem.case import parse_case
-
     return parse_case(
         {
             "name": "coil pair (115 mm, 35 mm thick, 70 mm apart) with a 7.5 mm trapezoid arm",

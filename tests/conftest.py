@@ -9,6 +9,7 @@ skipped on one rank.
 
 from __future__ import annotations
 
+import gc
 import shutil
 from pathlib import Path
 
@@ -50,3 +51,12 @@ def shared_tmp(comm):
 @pytest.fixture(scope="session")
 def repo() -> Path:
     return REPO
+
+
+@pytest.fixture(autouse=True)
+def _free_meshes():
+    """Collect each test's garbage on every rank at the same point: meshes and PETSc objects
+    held in reference cycles keep their MPI communicators, and a few hundred tests in one
+    process otherwise run out of MPI communicator contexts (an abort in create_mesh)."""
+    yield
+    gc.collect()

@@ -1,19 +1,21 @@
-"""Applied magnetic field: sources, waveforms, magnetostatic FE solves, field models.
+"""Applied magnetic field: sources, iron parts, waveforms, motions, field models.
 
 Layers (each a module):
 
-* :mod:`~magfem.field.spec`: the ``[field]`` case table (sources, waveforms, FE settings).
-* :mod:`~magfem.field.waveforms`: dimensionless time functions with their switching instants.
-* :mod:`~magfem.field.analytic`: closed-form reference fields (current loop, thick coil,
-  cylinder and block magnets), independent of the FE code.
-* :mod:`~magfem.field.axisymmetric`: A_φ solve in (r, z) for coils and cylinder magnets.
-* :mod:`~magfem.field.solid`: 3D reduced-scalar-potential solve for block magnets.
-* :mod:`~magfem.field.recovery`, :mod:`~magfem.field.points`: air-only L² recovery of B and
-  ∇B; collective evaluation at arbitrary points.
-* :mod:`~magfem.field.solvers`: source table → geometry, default mesh sizes, FE solve.
-* :mod:`~magfem.field.model`: :class:`FieldModel` (uniform, Taylor, FE) for the mechanics.
-* :mod:`~magfem.field.output`: VTX/.vti/CSV/PNG writers.
-* :mod:`~magfem.field.run`: ``run_field(case, outdir, comm)`` behind ``magfem field CASE``.
+* :mod:`~magfem.field.spec` (with :mod:`~magfem.field.source_spec`,
+  :mod:`~magfem.field.iron_spec`): the ``[field]`` case table.
+* :mod:`~magfem.field.waveforms`, :mod:`~magfem.field.placement`: time
+  functions and rigid keyframed motions.
+* :mod:`~magfem.field.analytic`: closed-form fields of coils and magnets and
+  their gradients; :mod:`~magfem.field.source`: those fields placed in 3D.
+* :mod:`~magfem.field.iron` (with :mod:`~magfem.field.iron_mesh`, :mod:`~magfem.field.reaction`,
+  :mod:`~magfem.field.recovery`, :mod:`~magfem.field.points`): the FE
+  reaction field of soft-iron parts.
+* :mod:`~magfem.field.build`: the case table → terms (field × waveform × motion).
+* :mod:`~magfem.field.models`, :mod:`~magfem.field.choice`,
+  :mod:`~magfem.field.model`: the field models the mechanics uses and
+  ``create_field_model``.
+* :mod:`~magfem.field.output`, :mod:`~magfem.field.run`: ``magfem field CASE``.
 
 Measured accuracy and cost: docs/field.md.
 """

@@ -1,9 +1,8 @@
-"""Field output: VTX for ParaView, a sampled 3D grid (.vti), CSV of B and ∇B, a pyvista PNG.
+"""Field output: VTX of iron solves, a sampled 3D grid (.vti), CSV of B and ∇B, a pyvista PNG.
 
-All functions are collective (the FE fields are evaluated collectively);
-only rank 0 writes CSV/PNG/VTI files. Fields are written at nominal
-strength (every waveform = 1): the applied field at time t is the sum of
-the sources times their waveform values.
+All functions are collective (iron reactions are evaluated collectively);
+only rank 0 writes CSV/PNG/VTI files. Values are at nominal strength (every
+waveform = 1), with the sources placed as at time ``t``.
 """
 
 from __future__ import annotations
@@ -13,126 +12,137 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyvista
+from dolfinx.io import VTXWriter
 from mpi4py import MPI
 
-from magfem.field.model import SourceField
-from magfem.field.spec import (
-    BlockMagnetSpec,
-    CoilSpec,
-    CylinderMagnetSpec,
-    FieldSpec,
-    coil_centers,
-    frame,
-)
+from magfem.field.build import Term
+from magfem.field.models import term_values
+from magfem.field.reaction import ReactionField
+from magfem.field.source import SourceField, SumField
+from magfem.field.spec import FieldSpec
 
 __all__ = [
+    "CSV_COLUMNS",
+    "inside_mask",
     "plot_field",
     "plot_plane",
+    "reactions",
     "sample",
     "write_csv",
     "write_grid",
     "write_vtx",
 ]
 
+CSV_COLUMNS = ["x", "y", "z", "Bx", "By", "Bz", "Bnorm"] + [
+    f"dB{a}_d{b}" for a in "xyz" for b in "xyz"
+]
 
-def sample(sources: Sequence[SourceField], points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Σ over sources of B (N, 3), T, and ∇B (N, 3, 3), T/m, at ``points`` (N, 3) (collective)."""
+
+def sample(
+    terms: Sequence[Term], points: np.ndarray, t: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Σ over terms of B (N, 3), T, and ∇B (N, 3, 3), T/m, at ``points`` (N, 3), time t."""
     pts = np.atleast_2d(points).reshape(-1, 3)
-    B = np.zeros((len(pts), 3))
-    G = np.zeros((len(pts), 3, 3))
-    for s in sources:
-        B += s.flux_density(pts)
-        G += s.gradient(pts)
+    B, G = np.zeros((len(pts), 3)), np.zeros((len(pts), 3, 3))
+    for term in terms:
+        b, g = term_values(term, pts, t)
+        B, G = B + b, G + g
     return B, G
 
 
-def _superpose(sources: Sequence[SourceField], pts: np.ndarray, comm: MPI.Comm) -> np.ndarray:
-    """Σ B on rank 0's ``pts`` (N, 3) (NaN where a source's air region ends); others get (0, 3)."""
-    mine = pts if comm.rank == 0 else np.zeros((0, 3))
-    B = np.zeros((len(mine), 3))
-    for src in sources:
-        ok = src.covers(mine)
-        B[ok] += src.flux_density(mine[ok])
-        B[~ok] = np.nan
-    return B
+def inside_mask(terms: Sequence[Term], pts: np.ndarray, t: float) -> np.ndarray:
+    """Mask of points inside a winding, magnet or iron part at time t."""
+    mask = np.zeros(len(pts), dtype=bool)
+    for term in terms:
+        ref = pts if term.trajectory is None else term.trajectory.placement(t).to_reference(pts)
+        mask |= term.field.inside(ref)
+    return mask
 
 
 def write_csv(path: Path, points: np.ndarray, B: np.ndarray, G: np.ndarray, comm: MPI.Comm) -> Path:
     """CSV with x, y, z (m), Bx, By, Bz, |B| (T) and dBi/dxj (T/m); rank 0 writes its rows."""
     if comm.rank == 0:
-        names = ["x", "y", "z", "Bx", "By", "Bz", "Bnorm"]
-        names += [f"dB{a}_d{b}" for a in "xyz" for b in "xyz"]
         data = np.column_stack([points, B, np.linalg.norm(B, axis=1), G.reshape(len(points), 9)])
         path.parent.mkdir(parents=True, exist_ok=True)
-        np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.9e")
+        np.savetxt(path, data, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt="%.9e")
     return path
 
 
-def write_vtx(fields: Sequence[SourceField], outdir: Path) -> list[Path]:
-    """One VTX (BP4) file per FE source with its potential and recovered B, ∇B (collective).
+def reactions(terms: Sequence[Term]) -> list[ReactionField]:
+    """The iron reaction fields among the terms."""
+    out: list[ReactionField] = []
 
-    Axisymmetric sources are written on their (r, z) mesh (x = r, y = z);
-    3D sources on their 3D mesh. ParaView >= 5.10 reads BP4.
+    def visit(f: SourceField) -> None:
+        if isinstance(f, ReactionField):
+            out.append(f)
+        elif isinstance(f, SumField):
+            for g in f.fields:
+                visit(g)
+
+    for term in terms:
+        visit(term.field)
+    return out
+
+
+def write_vtx(terms: Sequence[Term], outdir: Path) -> list[Path]:
+    """One VTX (BP4) file per iron reaction: recovered air B, ∇B and the iron's B (collective).
+
+    Axisymmetric solves are written on their (r, z) mesh (x = r, y = z).
     """
-    from dolfinx.io import VTXWriter
-
-    from magfem.field.axisymmetric import AxisymmetricField
-    from magfem.field.solid import SolidField
-
     out = []
-    for f in fields:
-        if isinstance(f, AxisymmetricField):
-            funcs = [f.A, *f.B, *f.dB]
-        elif isinstance(f, SolidField):
-            funcs = [f.phi, *f.H, *f.dH]
-        else:
-            continue
-        path = outdir / f"{f.name}.bp"
-        with VTXWriter(funcs[0].function_space.mesh.comm, path, funcs, engine="BP4") as w:
+    for k, r in enumerate(reactions(terms)):
+        path = outdir / f"iron_reaction{k}.bp"
+        with VTXWriter(r.mesh.comm, path, [r.recovered], engine="BP4") as w:
             w.write(0.0)
         out.append(path)
     return out
 
 
 def _extent(spec: FieldSpec) -> tuple[np.ndarray, float]:
-    """Centre (3,) and half-width (m) of a view containing all sources and the workspace."""
-    pts = [np.asarray(spec.expansion_point, dtype=float)]
-    radii = [spec.workspace_size]
+    """Centre (3,) and half-width (m) of a view containing the sources, iron and workspace."""
+    pts = [
+        np.asarray(spec.expansion_point, dtype=float) + spec.workspace_size / 2 * s
+        for s in (-np.ones(3), np.ones(3))
+    ]
     for s in spec.sources:
-        if isinstance(s, CoilSpec):
-            for c, _ in coil_centers(s):
-                pts.append(c)
-                radii.append(float(np.hypot(s.outer_radius, s.length / 2)))
-        elif isinstance(s, CylinderMagnetSpec | BlockMagnetSpec):
-            pts.append(np.asarray(s.center, dtype=float))
-            size = (
-                np.hypot(s.radius, s.length / 2)
-                if isinstance(s, CylinderMagnetSpec)
-                else 0.5 * np.linalg.norm(s.size)
-            )
-            radii.append(float(size))
-    P = np.array(pts)
-    lo = np.min(P - np.array(radii)[:, None], axis=0)
-    hi = np.max(P + np.array(radii)[:, None], axis=0)
+        if hasattr(s, "center"):
+            pts.append(_source_corners(s))
+    for p in spec.iron:
+        pts.append(p.sample_points())
+    P = np.vstack(pts)
+    lo, hi = P.min(axis=0), P.max(axis=0)
     return 0.5 * (lo + hi), 0.6 * float(np.max(hi - lo))
 
 
-def _view_plane(spec: FieldSpec) -> tuple[np.ndarray, np.ndarray]:
-    """Unit in-plane axes (u, v) of the figure.
+def _source_corners(s: Any) -> np.ndarray:
+    """Corners (4, 3) of a box holding a placed source (conservative), m."""
+    c = np.asarray(s.center, dtype=float)
+    if hasattr(s, "size"):
+        r = h = 0.5 * float(np.linalg.norm(s.size))
+    else:
+        r = float(getattr(s, "outer_radius", 0.0) or s.radius)
+        h = getattr(s, "separation", 0.0) / 2 + s.length / 2
+    ends = np.array([c + s.unit_axis * h, c - s.unit_axis * h])
+    return np.vstack([ends - r, ends + r])
 
-    v = the first placed source's axis (default z); u ⊥ v points to the first other
-    source centre off that axis (so both appear in the plane), else x (or y).
-    """
-    v = np.array([0.0, 0.0, 1.0])
-    placed: list[Any] = [s for s in spec.sources if hasattr(s, "unit_axis")]
-    if placed:
-        v = placed[0].unit_axis
+
+def _view_plane(spec: FieldSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Unit in-plane axes (u, v): v along the first placed source or iron axis (default z);
+    u ⊥ v towards the first other centre off that axis, else x (or y)."""
+    parts: list[tuple[np.ndarray, np.ndarray | None]] = []
+    placed: list[Any] = [s for s in spec.sources if hasattr(s, "center")]
+    for s in placed:
+        parts.append((np.asarray(s.center, dtype=float), s.unit_axis))
+    for p in spec.iron:
+        ax = getattr(p, "axis", None)
+        parts.append((p.tip_point(), None if ax is None else np.asarray(ax) / np.linalg.norm(ax)))
+    v = next((a for _, a in parts if a is not None), np.array([0.0, 0.0, 1.0]))
     u = np.array([1.0, 0.0, 0.0]) if abs(v[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    if placed:
-        c0 = np.asarray(placed[0].center, dtype=float)
-        for s in placed[1:]:
-            d = np.asarray(s.center, dtype=float) - c0
-            d -= (d @ v) * v
+    if parts:
+        c0 = parts[0][0]
+        for c, _ in [*parts[1:], (np.asarray(spec.expansion_point, dtype=float), None)]:
+            d = c - c0 - ((c - c0) @ v) * v
             if np.linalg.norm(d) > 1e-9:
                 u = d / np.linalg.norm(d)
                 break
@@ -146,69 +156,52 @@ def plot_plane(
     """Grid of the figure plane: centre (3,), axes u, v (3,), coordinates s (n,) in m."""
     c, half = _extent(spec)
     u, v = _view_plane(spec)
-    c = c - ((c - np.asarray(spec.expansion_point)) @ np.cross(u, v)) * np.cross(u, v)
+    w = np.cross(u, v)
+    c = c - ((c - np.asarray(spec.expansion_point)) @ w) * w
     return c, u, v, np.linspace(-half, half, n)
+
+
+def _superpose(terms: Sequence[Term], pts: np.ndarray, comm: MPI.Comm, t: float) -> np.ndarray:
+    """Σ B on rank 0's ``pts`` (N, 3); other ranks get (0, 3) (collective)."""
+    mine = pts if comm.rank == 0 else np.zeros((0, 3))
+    return sample(terms, mine, t)[0]
 
 
 def plot_field(
     spec: FieldSpec,
-    sources: Sequence[SourceField],
+    terms: Sequence[Term],
     path: Path,
     comm: MPI.Comm,
     *,
     robot: np.ndarray | None = None,
+    t: float = 0.0,
     n: int = 161,
 ) -> Path:
     """PNG of |B| (log colour scale) with field lines in the plane through the sources' axis.
 
-    Args:
-        spec: field table (source outlines, workspace, view plane).
-        sources: solved fields at nominal strength.
-        path: PNG path (rank 0 writes it).
-        comm: communicator (collective: the field is evaluated on all ranks).
-        robot: robot position, a box (2, 3) or points (N, 3), m, drawn as an outline
-            (default: the workspace cube).
-        n: grid points per direction.
+    Sources and iron parts are grey with black outlines; the robot (a box (2, 3) or
+    points (N, 3), m; default the workspace cube) is outlined in red. Collective.
     """
     c, u, v, s = plot_plane(spec, n)
     S, T = np.meshgrid(s, s, indexing="ij")
     pts = c + S.reshape(-1, 1) * u + T.reshape(-1, 1) * v
-    inside = _inside_sources(spec, pts)
-    B = _superpose(sources, pts, comm)
+    B = _superpose(terms, pts, comm, t)
     if comm.rank != 0:
         return path
-    import pyvista
-
-    pyvista.OFF_SCREEN = True
-    nb = np.linalg.norm(B, axis=1)
-    nb[inside] = np.nan
-    mm = 1e3  # plot coordinates in mm
+    inside = inside_mask(terms, pts, t)
+    mm = 1e3
     grid = pyvista.ImageData(
         dimensions=(n, n, 1),
         spacing=(mm * (s[1] - s[0]),) * 2 + (1.0,),
         origin=(mm * s[0], mm * s[0], 0.0),
     )
-    # ImageData orders points x fastest: (i, j) -> i + n j with x = s_i along u, y = s_j along v
-    order = np.arange(n * n).reshape(n, n).T.ravel()
-    bu, bv = B @ u, B @ v
-    bu[inside], bv[inside] = 0.0, 0.0
+    order = np.arange(n * n).reshape(n, n).T.ravel()  # ImageData: x (along u) fastest
+    nb = np.linalg.norm(B, axis=1)
+    nb[inside] = np.nan
+    bu, bv = np.where(inside, 0.0, B @ u), np.where(inside, 0.0, B @ v)
     grid.point_data["|B| (mT)"] = 1e3 * nb[order]
     grid.point_data["B"] = np.column_stack([bu[order], bv[order], np.zeros(n * n)])
-    seeds = pyvista.PolyData(
-        mm
-        * np.column_stack([np.linspace(s[2], s[-3], 24), np.full(24, s[n // 2 + 3]), np.zeros(24)])
-    )
-    seeds = seeds.merge(
-        pyvista.PolyData(
-            mm
-            * np.column_stack(
-                [np.full(16, s[n // 2 + 3]), np.linspace(s[2], s[-3], 16), np.zeros(16)]
-            )
-        )
-    )
-    lines = grid.streamlines_from_source(
-        seeds, vectors="B", max_steps=4000, initial_step_length=0.2
-    )
+    grid.point_data["body"] = inside[order].astype(float)
     p: Any = pyvista.Plotter(off_screen=True, window_size=[1000, 900])
     vals = grid.point_data["|B| (mT)"]
     finite = vals[np.isfinite(vals)]
@@ -216,18 +209,20 @@ def plot_field(
     p.add_mesh(
         grid, scalars="|B| (mT)", log_scale=True, clim=clim, cmap="viridis", nan_color="lightgray"
     )
+    lines = grid.streamlines_from_source(
+        _seeds(s, n, mm), vectors="B", max_steps=4000, initial_step_length=0.2
+    )
     if lines.n_points:
         p.add_mesh(lines, color="white", line_width=1.5)
-    for outline in _outlines(spec, c, u, v, robot):
-        p.add_mesh(
-            outline,
-            color="red" if outline.field_data.get("robot") is not None else "black",
-            line_width=3,
-        )
+    outline = grid.contour([0.5], scalars="body")
+    if outline.n_points:
+        p.add_mesh(outline, color="black", line_width=2)
+    p.add_mesh(_robot_outline(spec, c, u, v, robot), color="red", line_width=3)
     p.view_xy()
     p.add_text(
-        f"|B| (mT) at nominal strength, plane through {np.round(1e3 * c, 1)} mm; "
-        f"horizontal {np.round(u, 3)}, vertical {np.round(v, 3)}; red: robot",
+        f"|B| (mT) at nominal strength, t = {t * 1e3:g} ms, plane through "
+        f"{np.round(1e3 * c, 1)} mm; horizontal {np.round(u, 3)}, vertical "
+        f"{np.round(v, 3)}; red: robot",
         font_size=9,
     )
     p.show_bounds(xtitle="u (mm)", ytitle="v (mm)", font_size=9, fmt="%.0f")
@@ -237,113 +232,42 @@ def plot_field(
     return path
 
 
-def _inside_sources(spec: FieldSpec, pts: np.ndarray) -> np.ndarray:
-    """Mask of points inside windings or magnets (the recovered field is not meant there)."""
-    from magfem.field.spec import inside_winding
-
-    mask = np.zeros(len(pts), dtype=bool)
-    for s in spec.sources:
-        if isinstance(s, CoilSpec):
-            mask |= inside_winding(s, pts)
-        elif isinstance(s, CylinderMagnetSpec):
-            d = pts - np.asarray(s.center)
-            z = d @ s.unit_axis
-            r = np.linalg.norm(d - np.outer(z, s.unit_axis), axis=1)
-            mask |= (np.abs(z) <= s.length / 2) & (r <= s.radius)
-        elif isinstance(s, BlockMagnetSpec):
-            loc = (pts - np.asarray(s.center)) @ frame(s.unit_axis, s.roll)
-            mask |= np.all(np.abs(loc) <= np.asarray(s.size) / 2, axis=1)
-    return mask
+def _seeds(s: np.ndarray, n: int, mm: float) -> Any:
+    """Field-line seeds: a horizontal and a vertical row through the plot."""
+    row = np.column_stack([np.linspace(s[2], s[-3], 24), np.full(24, s[n // 2 + 3]), np.zeros(24)])
+    col = np.column_stack([np.full(16, s[n // 2 + 3]), np.linspace(s[2], s[-3], 16), np.zeros(16)])
+    return pyvista.PolyData(mm * row).merge(pyvista.PolyData(mm * col))
 
 
-def _outlines(
+def _robot_outline(
     spec: FieldSpec, c: np.ndarray, u: np.ndarray, v: np.ndarray, robot: np.ndarray | None
-) -> list[Any]:
-    """Polylines (in plot coordinates) of the source cross-sections and the robot box."""
-    import pyvista
-
-    def poly(corners3d: np.ndarray, tag: str | None = None) -> Any:
-        d = corners3d - c
-        xy = 1e3 * np.column_stack([d @ u, d @ v, np.zeros(len(d))])
-        line = pyvista.lines_from_points(np.vstack([xy, xy[:1]]))
-        if tag:
-            line.field_data[tag] = [1]
-        return line
-
-    out = []
-    q: list[Any]
-    for s in spec.sources:
-        if isinstance(s, CoilSpec):
-            for cc, _ in coil_centers(s):
-                for side in (-1, 1):
-                    r0, r1, h = s.inner_radius, s.outer_radius, s.length / 2
-                    radial = _radial(u, v, s.unit_axis) * side
-                    q = [
-                        cc + radial * r + s.unit_axis * z
-                        for r, z in ((r0, -h), (r1, -h), (r1, h), (r0, h))
-                    ]
-                    out.append(poly(np.array(q)))
-        elif isinstance(s, CylinderMagnetSpec):
-            radial = _radial(u, v, s.unit_axis)
-            h, R = s.length / 2, s.radius
-            cc = np.asarray(s.center)
-            q = [cc + radial * r + s.unit_axis * z for r, z in ((-R, -h), (R, -h), (R, h), (-R, h))]
-            out.append(poly(np.array(q)))
-        elif isinstance(s, BlockMagnetSpec):
-            Rm = frame(s.unit_axis, s.roll)
-            hs = np.asarray(s.size) / 2
-            corners = np.array(
-                [[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)]
-            ) * hs @ Rm.T + np.asarray(s.center)
-            d = corners - c
-            a, b = d @ u, d @ v
-            q = [
-                [a.min(), b.min()],
-                [a.max(), b.min()],
-                [a.max(), b.max()],
-                [a.min(), b.max()],
-            ]
-            out.append(poly(np.array([c + x * u + y * v for x, y in q])))
+) -> Any:
+    """Polyline (plot coordinates, mm) of the robot box projected on the plane."""
     box = robot
     if box is None:
         h = spec.workspace_size / 2
-        x0 = np.asarray(spec.expansion_point)
+        x0 = np.asarray(spec.expansion_point, dtype=float)
         box = np.array([x0 - h, x0 + h])
     pts = np.atleast_2d(box)
     if pts.shape == (2, 3):
         pts = np.array([[x, y, z] for x in pts[:, 0] for y in pts[:, 1] for z in pts[:, 2]])
-    d = pts - c
-    a, b = d @ u, d @ v
-    q = [[a.min(), b.min()], [a.max(), b.min()], [a.max(), b.max()], [a.min(), b.max()]]
-    out.append(poly(np.array([c + x * u + y * v for x, y in q]), "robot"))
-    return out
-
-
-def _radial(u: np.ndarray, v: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """Unit vector in the figure plane perpendicular to ``axis`` (for source cross-sections)."""
-    w = u - (u @ axis) * axis
-    if np.linalg.norm(w) < 1e-9:
-        w = v - (v @ axis) * axis
-    return w / np.linalg.norm(w)
+    a, b = (pts - c) @ u, (pts - c) @ v
+    q = np.array([[a.min(), b.min()], [a.max(), b.min()], [a.max(), b.max()], [a.min(), b.max()]])
+    xy = 1e3 * np.column_stack([q, np.zeros(4)])
+    return pyvista.lines_from_points(np.vstack([xy, xy[:1]]))
 
 
 def write_grid(
-    spec: FieldSpec, sources: Sequence[SourceField], path: Path, comm: MPI.Comm, n: int = 41
+    spec: FieldSpec, terms: Sequence[Term], path: Path, comm: MPI.Comm, n: int = 41, t: float = 0.0
 ) -> Path:
-    """The superposed B (and |B|) sampled on an n³ grid around the sources, as a .vti (ParaView)."""
+    """The superposed B (and |B|) on an n³ grid around the sources, as a .vti (ParaView)."""
     c, half = _extent(spec)
     s = np.linspace(-half, half, n)
     X, Y, Zg = np.meshgrid(s, s, s, indexing="ij")
-    # ImageData: x fastest
-    pts = c + np.column_stack(
-        [X.transpose(2, 1, 0).ravel(), Y.transpose(2, 1, 0).ravel(), Zg.transpose(2, 1, 0).ravel()]
-    )
-    inside = _inside_sources(spec, pts)
-    B = _superpose(sources, pts, comm)
+    pts = c + np.column_stack([a.transpose(2, 1, 0).ravel() for a in (X, Y, Zg)])  # x fastest
+    B = _superpose(terms, pts, comm, t)
     if comm.rank == 0:
-        import pyvista
-
-        B[inside] = np.nan
+        B[inside_mask(terms, pts, t)] = np.nan
         grid = pyvista.ImageData(
             dimensions=(n, n, n), spacing=(s[1] - s[0],) * 3, origin=tuple(c - half)
         )

@@ -17,6 +17,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc
+from petsc4py import PETSc
 
 __all__ = ["Projector", "air_indicator", "pack"]
 
@@ -27,8 +31,6 @@ def pack(functions: list[Any], name: str = "packed") -> Any:
     Point evaluation then locates each point once and evaluates all components
     in one call (the recovered B, ∇B are evaluated at every robot node per step).
     """
-    from dolfinx import fem
-
     V = functions[0].function_space
     W = fem.functionspace(
         V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree, (len(functions),))
@@ -49,8 +51,6 @@ def air_indicator(mesh: Any, cell_tags: Any, source_tags: list[int], eps: float 
     the projection is, up to ``eps``, the projection over the air alone
     (the dofs inside a source are decoupled, not constrained).
     """
-    from dolfinx import fem
-
     Q = fem.functionspace(mesh, ("DG", 0))
     chi = fem.Function(Q, name="air_indicator")
     chi.x.array[:] = 1.0
@@ -81,11 +81,6 @@ class Projector:
         zero_dofs: np.ndarray | None = None,
         prefix: str,
     ):
-        import ufl
-        from dolfinx import fem
-        from dolfinx.fem import petsc
-        from petsc4py import PETSc
-
         self.V, self.dx, self.weight = V, dx, weight
         u, self._w = ufl.TrialFunction(V), ufl.TestFunction(V)
         a = fem.form(u * self._w * weight * dx)
@@ -114,10 +109,6 @@ class Projector:
 
     def __call__(self, expr: Any, *, constrained: bool = False, name: str = "") -> Any:
         """The projection of the scalar UFL ``expr`` (a new Function on V)."""
-        from dolfinx import fem
-        from dolfinx.fem import petsc
-        from petsc4py import PETSc
-
         L = fem.form(expr * self._w * self.weight * self.dx)
         b = petsc.assemble_vector(L)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]

@@ -1,397 +1,157 @@
-"""Case table ``[field]``: applied-field sources, their waveforms, the field model, FE settings.
+"""Case table ``[field]``: sources, iron parts, motions, the field model and FE settings.
 
-A case without ``[field]`` has no applied field. Every source is one entry of
-the array of tables ``[[field.sources]]``; its ``kind`` selects the keys it
-accepts::
+A case without ``[field]`` has no applied field::
 
     [field]
-    model = "auto"                 # auto | uniform | taylor1 | taylor2 | fe
+    model = "auto"                 # auto | uniform | taylor1 | taylor2 | nodal (= fe)
     expansion_point = [0, 0, 0]    # m, Taylor expansion point = workspace centre
-    workspace_size = "20 mm"       # edge of the cubic robot workspace (error reports)
+    workspace_size = "20 mm"       # edge of the cubic robot workspace
+    tolerance = 0.01               # auto: error allowed in B and in ∇B over the workspace
 
-    [[field.sources]]
-    kind = "uniform"
-    flux_density = "2 mT"          # amplitude, T
-    direction = [1, 0, 0]          # normalised; the zero vector is an error
-    [field.sources.waveform]
-    kind = "square"                # dc | square | sine | trigger | table | square_rl
-    frequency = "20 Hz"
+    [[field.sources]]              # coils and magnets: magfem.field.source_spec
+    kind = "cylinder_magnet"
+    center = [0, 0, -0.02]
+    motion = "approach"
 
-    [[field.sources]]
-    kind = "coil_pair"             # the experiments' electromagnet (defaults)
-    center = [0, 0, 0]
-    axis = [0, 0, 1]
-    flux_density = "10 mT"         # field at the centre; or current = "3 A"
-    [field.sources.waveform]
-    kind = "square_rl"
-    frequency = "50 Hz"
+    [[field.iron]]                 # magnetizable parts: magfem.field.iron_spec
+    kind = "needle"
+    tip = [0, 0, 0.01]
 
-    [field.solve]                  # FE settings of the magnetostatic solves
-    degree = 3
+    [[field.motions]]              # rigid keyframed motions, referred to by name
+    name = "approach"
+    times = ["0 ms", "50 ms", "100 ms"]
+    offsets = [[0, 0, 0], [0, 0, "5 mm"], [0, 0, 0]]
+    angles = ["0 deg", "0 deg", "30 deg"]   # optional, about rotation_axis through pivot
 
-Source kinds and their keys (lengths in m, SI or strings with units):
+    [field.solve]                  # FE settings of the iron solve (only with [[field.iron]])
+    degree = 2
 
-========================= ==================================================
-``uniform``               ``flux_density`` (T), ``direction``
-``coil``                  ``center``, ``axis``, ``inner_radius``,
-                          ``outer_radius``, ``length`` (axial winding
-                          thickness), ``turns``, ``current`` (A) *or*
-                          ``flux_density`` (T at the coil centre)
-``coil_pair``             as ``coil`` plus ``separation`` (centre-to-centre
-                          distance of the two windings) and ``polarity``
-                          (``same``: Helmholtz-like uniform field;
-                          ``opposite``: Maxwell-like gradient field)
-``cylinder_magnet``       ``center``, ``axis`` (magnetisation direction),
-                          ``radius``, ``length``, ``remanence`` (T)
-``block_magnet``          ``center``, ``axis`` (magnetisation direction =
-                          local z), ``size`` (local x, y, z edges), ``roll``
-                          (rotation of the local x edge about ``axis``),
-                          ``remanence`` (T)
-========================= ==================================================
-
-Every source has a ``waveform`` sub-table (default DC). A waveform value is a
-dimensionless multiplier in [-1, 1] of the source's nominal strength: the flux
-density of a uniform source, the current of a coil, the remanence of a magnet
-(a magnet that moves in and out is a ``table`` waveform).
-
-``coil_pair`` defaults are the experiments' electromagnet (SCENES.md): each
-coil 115 mm in outer diameter, 35 mm thick, 70 mm centre to centre. The
-inner winding radius (25 mm) and the number of turns (270) are *assumed*:
-Wheeler's multilayer formula L = 31.6 N² r̄² / (6 r̄ + 9 l + 10 c) µH (r̄ mean
-radius, l length, c winding depth, all in m; H. A. Wheeler, Proc. IRE 16,
-1398 (1928)) gives L = 4.4 mH for N = 270, matching the quoted 4.5 mH, and
-1 Ω then needs ~1.2 mm² copper wire, which fits the 35 × 32.5 mm² winding.
+Rules checked here (each a :class:`~magfem.config.CaseError` naming the key):
+magnets may not overlap windings nor iron; all iron parts move together, and
+every coil or magnet moves with them (a source moving relative to the iron
+would change its magnetisation in time); a uniform source may act on iron
+only if the iron is fixed; with nonlinear iron (``saturation``) all sources
+share one waveform taking only the values −1, 0, 1, because the iron's
+response is then not proportional to the sources' strength.
 """
 
 from __future__ import annotations
 
-import math
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
-from magfem.config import (
-    MISSING,
-    CaseError,
-    build_fields,
-    check_keys,
-    integer,
-    option,
-    quantity,
-    vector,
+from magfem.config import MISSING, CaseError, build_fields, integer, option, quantity, vector
+from magfem.field.iron_spec import IronSpec
+from magfem.field.source_spec import (
+    BlockMagnetSpec,
+    CoilPairSpec,
+    CoilSpec,
+    CylinderMagnetSpec,
+    SourceSpec,
+    UniformSourceSpec,
+    WaveformSpec,
+    coil_centers,
+    inside_source,
+    inside_winding,
+    magnet_sample_points,
+    unit_vector,
 )
+from magfem.units import UnitError, parse_quantity
 
 __all__ = [
     "MODELS",
-    "SOURCE_KINDS",
-    "WAVEFORM_KINDS",
     "BlockMagnetSpec",
     "CoilPairSpec",
     "CoilSpec",
     "CylinderMagnetSpec",
     "FieldSpec",
+    "IronSpec",
+    "MotionSpec",
     "SolveSpec",
     "SourceSpec",
     "UniformSourceSpec",
     "WaveformSpec",
+    "coil_centers",
+    "inside_source",
+    "inside_winding",
+    "magnet_sample_points",
     "unit_vector",
 ]
 
-MODELS = ("auto", "uniform", "taylor1", "taylor2", "fe")
-SOURCE_KINDS = ("uniform", "coil", "coil_pair", "cylinder_magnet", "block_magnet")
-WAVEFORM_KINDS = ("dc", "square", "sine", "trigger", "table", "square_rl")
-
-_WAVEFORM_COMMON = ("kind", "start", "amplitude")
-_WAVEFORM_KEYS: dict[str, tuple[str, ...]] = {
-    "dc": ("duration",),
-    "square": ("frequency", "phase", "duty", "bipolar", "duration"),
-    "sine": ("frequency", "phase", "duration"),
-    "trigger": ("duration",),
-    "table": ("times", "values"),
-    "square_rl": (
-        "frequency",
-        "phase",
-        "duty",
-        "duration",
-        "inductance",
-        "resistance",
-        "voltage",
-        "current",
-    ),
-}
-
-
-def unit_vector(v: tuple[float, ...] | np.ndarray, key: str) -> np.ndarray:
-    """``v`` normalised to length 1 (shape (3,)); CaseError naming ``key`` if zero or not 3-D."""
-    a = np.asarray(v, dtype=float)
-    n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
-    if not n > 0.0 or not math.isfinite(n):
-        raise CaseError(key, tuple(v), "must be a nonzero 3-vector")
-    return a / n
+MODELS = ("auto", "uniform", "taylor1", "taylor2", "nodal", "fe")
 
 
 @dataclass(frozen=True)
-class WaveformSpec:
-    """Time function of a source: a dimensionless multiplier of its nominal strength.
+class MotionSpec:
+    """``[[field.motions]]``: a rigid keyframed motion (piecewise linear, held outside).
 
-    ``kind``:
-
-    * ``dc``: 1 from ``start`` on (for ``duration`` if given).
-    * ``square``: bipolar ±1 (or 0/1 with ``bipolar = false``), +1 during the
-      first ``duty`` fraction of each period, shifted by ``phase``.
-    * ``sine``: sin(2π f (t − start) + phase).
-    * ``trigger``: 1 during [start, start + duration), 0 otherwise.
-    * ``table``: piecewise linear through (``times``, ``values``); a repeated
-      time makes a jump; held constant outside the table.
-    * ``square_rl``: the current of a coil (``inductance`` L, ``resistance``
-      R) driven by a bipolar ±``voltage`` supply that regulates the current
-      to ±``current`` (the coil's nominal current): after each switch the
-      supply saturates at ±V, L di/dt = ±V − R i, until |i| reaches the
-      nominal current, which is then held (see
-      :class:`magfem.field.waveforms.SquareRL`).
-
-    All kinds are 0 before ``start`` (alias ``delay``) and, where ``duration`` is given, from
-    ``start + duration`` on; ``amplitude`` scales the result (|amplitude| <= 1).
+    The parts naming it move by ``offsets`` (m) and turn by ``angles`` (rad)
+    about ``rotation_axis`` through ``pivot`` (a point of the case's
+    placement), both interpolated linearly between the keyframe ``times``.
     """
 
-    kind: str = option("dc", WAVEFORM_KINDS, doc="waveform kind")
-    start: float = quantity(0.0, "s", ge=0.0, doc="switch-on time (delay)")
-    amplitude: float = quantity(1.0, "", ge=-1.0, le=1.0, doc="multiplier, |a| <= 1")
-    frequency: float | None = quantity(None, "Hz", gt=0.0, doc="square/sine/square_rl")
-    phase: float = quantity(0.0, "rad", doc="phase shift (rad, or '90 deg')")
-    duty: float = quantity(0.5, "", gt=0.0, lt=1.0, doc="fraction of a period at +1")
-    bipolar: bool = True
-    duration: float | None = quantity(None, "s", gt=0.0, doc="on-time (trigger)")
-    times: tuple[float, ...] | None = vector(None, "s", length=None, doc="table times")
-    values: tuple[float, ...] | None = vector(None, "", length=None, doc="table values")
-    inductance: float = quantity(4.5e-3, "H", gt=0.0, doc="coil inductance (square_rl)")
-    resistance: float = quantity(1.0, "Ohm", gt=0.0, doc="coil resistance (square_rl)")
-    voltage: float = quantity(20.0, "V", gt=0.0, doc="supply voltage (square_rl)")
-    current: float | None = quantity(None, "A", gt=0.0, doc="nominal current (square_rl)")
+    name: str = option(MISSING, doc="referred to by the parts' motion keys")
+    times: tuple[float, ...] = vector(MISSING, "s", length=None, doc="keyframe times")
+    offsets: tuple[tuple[float, ...], ...] = ()
+    angles: tuple[float, ...] | None = vector(None, "rad", length=None, doc="keyframe angles")
+    rotation_axis: tuple[float, ...] = vector((0.0, 0.0, 1.0), "", nonzero=True)
+    pivot: tuple[float, ...] = vector((0.0, 0.0, 0.0), "m")
 
     @classmethod
-    def __from_table__(cls, table: Mapping[str, Any], where: str) -> WaveformSpec:
-        kind = table.get("kind", "dc")
-        if kind not in WAVEFORM_KINDS:
-            raise CaseError(
-                f"{where}.kind",
-                kind,
-                "unknown waveform; must be one of " + ", ".join(WAVEFORM_KINDS),
-            )
-        if "delay" in table:  # alias of start
-            if "start" in table:
-                raise CaseError(f"{where}.delay", table["delay"], "give start or delay, not both")
-            table = {("start" if k == "delay" else k): v for k, v in table.items()}
-        check_keys(table, _WAVEFORM_COMMON + _WAVEFORM_KEYS[kind], where)
-        return build_fields(cls, table, where)
-
-    def table_keys(self) -> tuple[str, ...]:
-        """Keys that apply to this kind (what :func:`magfem.config.to_table` writes)."""
-        return tuple(_WAVEFORM_COMMON) + tuple(_WAVEFORM_KEYS[self.kind])
+    def __from_table__(cls, table: Mapping[str, Any], where: str) -> MotionSpec:
+        raw = table.get("offsets", None)
+        rest = {k: v for k, v in table.items() if k != "offsets"}
+        offsets: tuple[tuple[float, ...], ...] = ()
+        if raw is not None:
+            offsets = _offsets(raw, f"{where}.offsets")
+        return build_fields(cls, rest, where, offsets=offsets)
 
     def __post_init__(self) -> None:
-        k = self.kind
-        if k in ("square", "sine", "square_rl") and self.frequency is None:
-            raise CaseError("frequency", MISSING, f"required for a {k} waveform (> 0 Hz)")
-        if k == "trigger" and self.duration is None:
-            raise CaseError("duration", MISSING, "required for a trigger waveform (> 0 s)")
-        if k == "table":
-            if self.times is None or self.values is None:
-                raise CaseError("times", MISSING, "a table waveform needs times and values")
-            if len(self.times) != len(self.values) or len(self.times) < 1:
-                raise CaseError(
-                    "values", self.values, f"must have as many entries as times ({len(self.times)})"
-                )
-            if any(b < a for a, b in zip(self.times, self.times[1:], strict=False)):
-                raise CaseError("times", self.times, "must be non-decreasing")
-            if any(
-                a == b == c
-                for a, b, c in zip(self.times, self.times[1:], self.times[2:], strict=False)
-            ):
-                raise CaseError("times", self.times, "a time may appear at most twice (one jump)")
-            if any(abs(v) > 1.0 for v in self.values):
-                raise CaseError("values", self.values, "must lie in [-1, 1] (multiplier)")
+        if not self.name:
+            raise CaseError("name", self.name, "must be a non-empty string")
+        t = self.times
+        if len(t) < 1 or any(b <= a for a, b in itertools.pairwise(t)):
+            raise CaseError("times", t, "must be one or more strictly increasing times")
+        for key, vals in (("offsets", self.offsets), ("angles", self.angles)):
+            if vals and len(vals) != len(t):
+                raise CaseError(key, vals, f"must have one entry per time ({len(t)})")
+        if not self.offsets and not self.angles:
+            raise CaseError("offsets", MISSING, "give offsets and/or angles")
 
 
-def _waveform_default() -> WaveformSpec:
-    return WaveformSpec()
-
-
-@dataclass(frozen=True)
-class SourceSpec:
-    """Base of the ``[[field.sources]]`` entries; ``kind`` selects the subclass."""
-
-    kind: str = option("uniform", SOURCE_KINDS)
-    waveform: WaveformSpec = field(default_factory=_waveform_default)
-
-    KIND: ClassVar[str] = ""
-
-    @classmethod
-    def __from_table__(cls, table: Mapping[str, Any], where: str) -> SourceSpec:
-        if "kind" not in table:
-            raise CaseError(
-                f"{where}.kind", MISSING, "missing required key; one of " + ", ".join(SOURCE_KINDS)
-            )
-        kind = table["kind"]
-        classes = {c.KIND: c for c in _SOURCE_CLASSES}
-        if kind not in classes:
-            raise CaseError(
-                f"{where}.kind",
-                kind,
-                "unknown source kind; must be one of " + ", ".join(SOURCE_KINDS),
-            )
-        return build_fields(classes[kind], table, where)
-
-    @property
-    def is_uniform(self) -> bool:
-        """True for a spatially uniform source."""
-        return self.kind == "uniform"
-
-
-@dataclass(frozen=True, kw_only=True)
-class UniformSourceSpec(SourceSpec):
-    """A spatially uniform flux density ``flux_density * direction * waveform(t)``."""
-
-    kind: str = option("uniform", ("uniform",))
-    flux_density: float = quantity(MISSING, "T", ge=0.0, doc="amplitude")
-    direction: tuple[float, ...] = vector((0.0, 0.0, 1.0), "", nonzero=True)
-
-    KIND: ClassVar[str] = "uniform"
-
-    @property
-    def unit_direction(self) -> np.ndarray:
-        """``direction`` normalised, shape (3,)."""
-        return unit_vector(self.direction, "direction")
-
-
-@dataclass(frozen=True, kw_only=True)
-class _PlacedSpec(SourceSpec):
-    center: tuple[float, ...] = vector((0.0, 0.0, 0.0), "m", doc="centre of the source")
-    axis: tuple[float, ...] = vector((0.0, 0.0, 1.0), "", nonzero=True, doc="symmetry axis")
-
-    @property
-    def unit_axis(self) -> np.ndarray:
-        """``axis`` normalised, shape (3,)."""
-        return unit_vector(self.axis, "axis")
-
-
-@dataclass(frozen=True, kw_only=True)
-class CoilSpec(_PlacedSpec):
-    """A thick solenoidal coil: rectangular winding cross-section, uniform current density.
-
-    J_φ = turns * current / ((outer_radius − inner_radius) * length), A/m².
-    Give ``current`` (A) or ``flux_density`` (T, on-axis field at the centre
-    at full waveform; the current is then computed from the closed form).
-    """
-
-    kind: str = option("coil", ("coil",))
-    inner_radius: float = quantity(25e-3, "m", ge=0.0)
-    outer_radius: float = quantity(57.5e-3, "m", gt=0.0)
-    length: float = quantity(35e-3, "m", gt=0.0, doc="axial thickness of the winding")
-    turns: int = integer(270, ge=1)
-    current: float | None = quantity(None, "A", gt=0.0)
-    flux_density: float | None = quantity(None, "T", gt=0.0, doc="field at the centre")
-
-    KIND: ClassVar[str] = "coil"
-
-    def __post_init__(self) -> None:
-        if not self.inner_radius < self.outer_radius:
-            raise CaseError(
-                "inner_radius",
-                self.inner_radius,
-                f"must be < outer_radius ({self.outer_radius:g} m)",
-            )
-        if (self.current is None) == (self.flux_density is None):
-            raise CaseError(
-                "current", self.current, "give exactly one of current (A) and flux_density (T)"
-            )
-
-
-@dataclass(frozen=True, kw_only=True)
-class CoilPairSpec(CoilSpec):
-    """Two identical coaxial coils at ``center ± separation/2 * axis``.
-
-    ``flux_density`` is then the field at the pair's centre.
-    """
-
-    kind: str = option("coil_pair", ("coil_pair",))
-    separation: float = quantity(70e-3, "m", gt=0.0, doc="centre-to-centre distance")
-    polarity: str = option("same", ("same", "opposite"))
-
-    KIND: ClassVar[str] = "coil_pair"
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if not self.separation >= self.length:
-            raise CaseError(
-                "separation",
-                self.separation,
-                f"windings overlap; must be >= length ({self.length:g} m)",
-            )
-        if self.polarity == "opposite" and self.flux_density is not None:
-            raise CaseError(
-                "flux_density",
-                self.flux_density,
-                "an opposite-polarity pair has B = 0 at its centre; give current",
-            )
-
-
-@dataclass(frozen=True, kw_only=True)
-class CylinderMagnetSpec(_PlacedSpec):
-    """Axially magnetised cylinder magnet (remanence ``remanence`` along ``axis``)."""
-
-    kind: str = option("cylinder_magnet", ("cylinder_magnet",))
-    radius: float = quantity(5e-3, "m", gt=0.0)
-    length: float = quantity(10e-3, "m", gt=0.0)
-    remanence: float = quantity(1.3, "T", gt=0.0, le=2.0)
-
-    KIND: ClassVar[str] = "cylinder_magnet"
-
-
-@dataclass(frozen=True, kw_only=True)
-class BlockMagnetSpec(_PlacedSpec):
-    """Rectangular block magnet, magnetised along its local z edge (= ``axis``)."""
-
-    kind: str = option("block_magnet", ("block_magnet",))
-    size: tuple[float, ...] = vector((10e-3, 10e-3, 5e-3), "m", doc="local x, y, z edges")
-    remanence: float = quantity(1.3, "T", gt=0.0, le=2.0)
-    roll: float = quantity(0.0, "rad", doc="rotation of the local x edge about axis")
-
-    KIND: ClassVar[str] = "block_magnet"
-
-    def __post_init__(self) -> None:
-        if any(not s > 0.0 for s in self.size):
-            raise CaseError("size", self.size, "all three edges must be > 0 m")
-
-
-_SOURCE_CLASSES: tuple[type[SourceSpec], ...] = (
-    UniformSourceSpec,
-    CoilSpec,
-    CoilPairSpec,
-    CylinderMagnetSpec,
-    BlockMagnetSpec,
-)
+def _offsets(raw: Any, key: str) -> tuple[tuple[float, ...], ...]:
+    """Parse a list of 3-vectors of lengths (numbers in m or strings with units)."""
+    if not isinstance(raw, list | tuple) or not all(
+        isinstance(v, list | tuple) and len(v) == 3 for v in raw
+    ):
+        raise CaseError(key, raw, "must be a list of [x, y, z] offsets")
+    try:
+        return tuple(tuple(parse_quantity(c, "m") for c in v) for v in raw)
+    except UnitError as err:
+        raise CaseError(key, raw, str(err)) from None
 
 
 @dataclass(frozen=True)
 class SolveSpec:
-    """``[field.solve]``: settings of the magnetostatic finite-element solves.
+    """``[field.solve]``: the finite-element solve of the iron parts' reaction field.
 
-    Mesh sizes default to fractions of the source dimensions (see
-    :mod:`magfem.geometry.sources`); ``air_factor`` is the radius of the air
-    region in units of the source's largest dimension (the truncation error
-    falls like air_factor⁻³, measured in docs/field.md).
+    The air region is a ball (or, axisymmetric, a half-disk) of radius
+    ``air_factor`` × the iron's bounding radius, enlarged to hold the workspace.
     """
 
-    degree: int = integer(3, ge=1, le=4, doc="Lagrange degree of A_phi / scalar potential")
-    mesh_size: float | None = quantity(None, "m", gt=0.0, doc="element size in the source")
-    workspace_mesh_size: float | None = quantity(None, "m", gt=0.0, doc="element size at the robot")
-    air_factor: float = quantity(20.0, "", ge=3.0, doc="air radius / source size")
-    solid_degree: int = integer(2, ge=1, le=3, doc="degree of the 3D scalar potential")
-    hessian_step: float | None = quantity(None, "m", gt=0.0, doc="step for FE ∇∇B (taylor2)")
+    degree: int | None = integer(None, ge=1, le=3, doc="potential degree (3 in (r, z), 2 in 3D)")
+    mesh_size: float | None = quantity(None, "m", gt=0.0, doc="element size on the iron surface")
+    workspace_mesh_size: float | None = quantity(None, "m", gt=0.0, doc="size cap in the workspace")
+    grading: float = quantity(0.2, "", gt=0.0, le=1.0, doc="size growth per distance from iron")
+    air_factor: float = quantity(10.0, "", ge=3.0, doc="air radius / iron size")
+    hessian_step: float | None = quantity(None, "m", gt=0.0, doc="step for the FE ∇∇B (taylor2)")
     open_boundary: str = option("robin", ("robin", "dirichlet"), doc="outer boundary condition")
+    geometry: str = option("auto", ("auto", "axisymmetric", "3d"), doc="FE geometry")
+    curved: bool = True
 
 
 def _solve_default() -> SolveSpec:
@@ -403,97 +163,114 @@ class FieldSpec:
     """``[field]``: applied-field sources and how the mechanics sees them.
 
     ``model``: ``uniform`` (B(t) at ``expansion_point``, no gradient),
-    ``taylor1``/``taylor2`` (B, ∇B (, ∇∇B) at ``expansion_point``), ``fe``
-    (the FE field, re-expanded about each robot node every time step) or
-    ``auto``: uniform when all sources are uniform, otherwise the cheapest
-    of taylor1, taylor2, fe whose flux-density error over the workspace
-    (cube of edge ``workspace_size`` about ``expansion_point``) is below
-    ``tolerance`` times the largest |B| there.
+    ``taylor1``/``taylor2`` (B, ∇B (, ∇∇B) at ``expansion_point``),
+    ``nodal`` (the field at the robot's nodes, re-expanded every time step;
+    ``fe`` is its former name) or ``auto``: the cheapest of these whose
+    errors over the workspace (cube of edge ``workspace_size`` about
+    ``expansion_point``) are within ``tolerance`` (:mod:`magfem.field.model`).
     """
 
     model: str = option("auto", MODELS)
     expansion_point: tuple[float, ...] = vector((0.0, 0.0, 0.0), "m")
     workspace_size: float = quantity(20e-3, "m", gt=0.0, doc="edge of the robot workspace cube")
-    tolerance: float = quantity(0.01, "", gt=0.0, lt=1.0, doc="auto: relative B error allowed")
+    tolerance: float = quantity(0.01, "", gt=0.0, lt=1.0, doc="auto: relative error allowed")
     sources: tuple[SourceSpec, ...] = ()
+    iron: tuple[IronSpec, ...] = ()
+    motions: tuple[MotionSpec, ...] = ()
     solve: SolveSpec = field(default_factory=_solve_default)
 
     def __post_init__(self) -> None:
-        coils = [(i, s) for i, s in enumerate(self.sources) if isinstance(s, CoilSpec)]
-        for i, s in enumerate(self.sources):
-            if not isinstance(s, CylinderMagnetSpec | BlockMagnetSpec):
-                continue
-            pts = magnet_sample_points(s)
-            for j, c in coils:
-                if np.any(inside_winding(c, pts)):
-                    raise CaseError(
-                        f"sources[{i}].center",
-                        s.center,
-                        f"magnet overlaps the winding of the coil sources[{j}]; "
-                        "move it into the bore or outside",
-                    )
+        _check_motions(self)
+        _check_overlaps(self)
+        if self.iron:
+            _check_iron_groups(self)
 
     @property
     def all_uniform(self) -> bool:
-        """True when every source is spatially uniform (or there is none)."""
-        return all(s.is_uniform for s in self.sources)
+        """True when every source is spatially uniform (or there is none) and there is no iron."""
+        return all(s.is_uniform for s in self.sources) and not self.iron
+
+    def motion(self, name: str) -> MotionSpec | None:
+        """The motion called ``name`` ('' → None)."""
+        return next((m for m in self.motions if m.name == name), None) if name else None
 
 
-def frame(axis: np.ndarray, roll: float = 0.0) -> np.ndarray:
-    """Rotation matrix whose columns are the local x, y, z axes; local z = ``axis``.
-
-    Args:
-        axis: unit vector, shape (3,).
-        roll: rotation of the local x axis about ``axis``, rad.
-
-    Returns:
-        R, shape (3, 3), with x_global = R @ x_local.
-    """
-    z = np.asarray(axis, dtype=float)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - z * (helper @ z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    c, s = math.cos(roll), math.sin(roll)
-    x, y = c * x + s * y, -s * x + c * y
-    return np.column_stack([x, y, z])
+def _check_motions(spec: FieldSpec) -> None:
+    names = [m.name for m in spec.motions]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise CaseError(f"motions[{i}].name", n, "motion names must be unique")
+    parts: list[tuple[str, Any]] = [(f"sources[{i}]", s) for i, s in enumerate(spec.sources)]
+    parts += [(f"iron[{i}]", p) for i, p in enumerate(spec.iron)]
+    for key, part in parts:
+        name = getattr(part, "motion", "")
+        if name and name not in names:
+            allowed = ", ".join(names) if names else "none defined in [[field.motions]]"
+            raise CaseError(f"{key}.motion", name, f"unknown motion; defined: {allowed}")
 
 
-def coil_centers(spec: CoilSpec) -> list[tuple[np.ndarray, float]]:
-    """Centres (shape (3,)) and current signs of the windings of a coil or coil pair."""
-    c = np.asarray(spec.center, dtype=float)
-    if isinstance(spec, CoilPairSpec):
-        a = spec.unit_axis * spec.separation / 2
-        return [(c - a, 1.0), (c + a, 1.0 if spec.polarity == "same" else -1.0)]
-    return [(c, 1.0)]
+def _check_overlaps(spec: FieldSpec) -> None:
+    coils = [(i, s) for i, s in enumerate(spec.sources) if isinstance(s, CoilSpec)]
+    for i, s in enumerate(spec.sources):
+        if not isinstance(s, CylinderMagnetSpec | BlockMagnetSpec):
+            continue
+        pts = magnet_sample_points(s)
+        for j, c in coils:
+            if np.any(inside_winding(c, pts)):
+                raise CaseError(
+                    f"sources[{i}].center",
+                    s.center,
+                    f"magnet overlaps the winding of the coil sources[{j}]; "
+                    "move it into the bore or outside",
+                )
+    for k, part in enumerate(spec.iron):
+        pts = part.sample_points()
+        for i, s in enumerate(spec.sources):
+            other = (
+                magnet_sample_points(s)
+                if isinstance(s, CylinderMagnetSpec | BlockMagnetSpec)
+                else None
+            )
+            if np.any(inside_source(s, pts)) or (other is not None and np.any(part.inside(other))):
+                raise CaseError(
+                    f"iron[{k}]", part.kind, f"overlaps the source sources[{i}] ({s.kind})"
+                )
 
 
-def inside_winding(spec: CoilSpec, points: np.ndarray) -> np.ndarray:
-    """Boolean mask, shape (N,), of ``points`` (N, 3) inside a winding of ``spec``."""
-    pts = np.atleast_2d(points)
-    axis = spec.unit_axis
-    mask = np.zeros(len(pts), dtype=bool)
-    for c, _ in coil_centers(spec):
-        d = pts - c
-        z = d @ axis
-        r = np.linalg.norm(d - np.outer(z, axis), axis=1)
-        mask |= (np.abs(z) <= spec.length / 2) & (r >= spec.inner_radius) & (r <= spec.outer_radius)
-    return mask
-
-
-def magnet_sample_points(spec: CylinderMagnetSpec | BlockMagnetSpec) -> np.ndarray:
-    """Points of a magnet's volume (centre, corners / rim), shape (N, 3), m."""
-    c = np.asarray(spec.center, dtype=float)
-    if isinstance(spec, BlockMagnetSpec):
-        R = frame(spec.unit_axis, spec.roll)
-        h = np.asarray(spec.size) / 2
-        signs = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
-        return c + (signs * h) @ R.T
-    R = frame(spec.unit_axis)
-    phi = np.linspace(0, 2 * math.pi, 16, endpoint=False)
-    out = [c]
-    for z in (-spec.length / 2, 0.0, spec.length / 2):
-        for rr in (0.0, spec.radius):
-            loc = np.column_stack([rr * np.cos(phi), rr * np.sin(phi), np.full_like(phi, z)])
-            out.extend(c + loc @ R.T)
-    return np.array(out)
+def _check_iron_groups(spec: FieldSpec) -> None:
+    group = spec.iron[0].motion
+    for k, part in enumerate(spec.iron):
+        if part.motion != group:
+            raise CaseError(
+                f"iron[{k}].motion",
+                part.motion,
+                f"all iron parts move together (iron[0] has motion '{group}')",
+            )
+    for i, s in enumerate(spec.sources):
+        if isinstance(s, UniformSourceSpec):
+            if group:
+                raise CaseError(
+                    f"sources[{i}].kind",
+                    s.kind,
+                    "a uniform source acting on moving iron is not supported",
+                )
+        elif getattr(s, "motion", "") != group:
+            raise CaseError(
+                f"sources[{i}].motion",
+                getattr(s, "motion", ""),
+                f"the iron moves with motion '{group}'; a source moving relative to it would "
+                "change its magnetisation in time: give the source the same motion",
+            )
+    if all(p.linear for p in spec.iron):
+        return
+    w0 = spec.sources[0].waveform if spec.sources else None
+    for i, s in enumerate(spec.sources):
+        w = s.waveform
+        if w != w0 or w.kind not in ("dc", "square", "trigger") or abs(w.amplitude) != 1.0:
+            raise CaseError(
+                f"sources[{i}].waveform",
+                w.kind,
+                "nonlinear iron (saturation given) needs all sources on one waveform taking "
+                "only the values -1, 0, 1 (dc, square or trigger, amplitude 1); "
+                "otherwise give the iron a linear permeability only",
+            )

@@ -7,7 +7,8 @@ Each waveform exposes
   float (float returned) or an array (array of the same shape returned).
 * ``breakpoints(t0, t1)``: the sorted instants in (t0, t1] where w or its
   slope jumps (switching instants), so a time stepper can land on them and
-  use one-sided limits there (FENICSX.md, "Time stepping with square waves").
+  use one-sided limits there (a generalised-α step evaluates the load inside
+  the step, so a switch must fall on a step boundary).
 
 All kinds are 0 before ``start``; where a ``duration`` is given they are 0
 from ``start + duration`` on (the ``square_rl`` current then decays through

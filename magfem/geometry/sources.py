@@ -1,18 +1,20 @@
-"""gmsh geometry of field sources in their air region: axisymmetric (r, z) and 3D.
+"""gmsh geometry of magnetizable (iron) bodies in their air region: 3D and axisymmetric (r, z).
+
+The fields of coils and magnets are closed forms, so only iron bodies and the
+air around them are meshed. A body is a named union of primitives:
+
+* 3D (:class:`IronBody`): :class:`Ball`, :class:`Frustum` (cylinder or
+  truncated cone), :class:`Box`, :class:`RuledSolid` (two parallel
+  quadrilaterals joined by ruled faces, e.g. a tapered tweezers prong);
+* (r, z) half-plane (:class:`IronProfile`): :class:`HalfDisk` (a sphere's
+  meridian section) and :class:`Polygon` (rods, needles, cones).
 
 Builders return a function ``builder(gmsh)`` for
-:func:`magfem.geometry.gmshio.build_mesh`; they run on rank 0 only.
-
-Axisymmetric: the half-disk {r ≥ 0, r² + z² ≤ R_air²} of the (r, z) plane
-(gdim = 2, x = r, y = z) containing the windings / magnets as rectangles
-(physical groups by name, e.g. ``coil_1``, ``coil_2``, ``magnet``) and
-``air``. 3D: a ball of radius R_air with box magnets (``magnet``) in ``air``.
-
-Element size: ``h_source`` in and near the sources, ``h_workspace`` in the
-robot's workspace box, growing linearly with the distance from the sources
-up to ``R_air / 8`` at the outer boundary, so large air regions cost few
-elements (the truncation error of the open boundary is measured in
-docs/field.md).
+:func:`magfem.geometry.gmshio.build_mesh`; they run on rank 0 only. Physical
+groups: each body under its name, the rest ``air`` (a ball, or a half-disk
+of the (r, z) plane, of radius ``r_air``). Element size: ``h_iron`` on the
+iron surfaces, growing by ``grading`` per unit distance from them up to
+``r_air / 8``, and at most ``h_workspace`` inside the ``workspace`` box.
 """
 
 from __future__ import annotations
@@ -23,51 +25,140 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BoxRegion", "RectRegion", "axisymmetric_builder", "solid_builder"]
+__all__ = [
+    "Ball",
+    "Box",
+    "Frustum",
+    "HalfDisk",
+    "IronBody",
+    "IronProfile",
+    "Polygon",
+    "RuledSolid",
+    "axisymmetric_builder",
+    "solid_builder",
+]
 
 
 @dataclass(frozen=True)
-class RectRegion:
-    """A rectangle [r0, r1] × [z0, z1] (m) of the (r, z) half-plane, physical group ``name``."""
+class Ball:
+    """Sphere of ``radius`` (m) about ``center`` (3,)."""
 
-    name: str
+    center: tuple[float, ...]
+    radius: float
+
+
+@dataclass(frozen=True)
+class Frustum:
+    """Truncated cone from ``base`` (3,) along ``vector`` (3,; length = height), radii r0 → r1."""
+
+    base: tuple[float, ...]
+    vector: tuple[float, ...]
     r0: float
     r1: float
-    z0: float
-    z1: float
 
 
 @dataclass(frozen=True)
-class BoxRegion:
-    """A box of edges ``size`` (3,) centred at ``center`` with orientation ``rotation``.
+class Box:
+    """Box of edges ``size`` (3,) about ``center``; ``rotation`` (3, 3): columns = local axes."""
 
-    ``rotation`` (3, 3): columns are the box's local x, y, z axes (m).
-    """
-
-    name: str
-    center: tuple[float, float, float]
-    size: tuple[float, float, float]
+    center: tuple[float, ...]
+    size: tuple[float, ...]
     rotation: tuple[tuple[float, ...], ...]
 
 
-def _name_pieces(
-    gmsh: Any, dim: int, names: Sequence[str], pieces: Sequence[Sequence[tuple[int, int]]]
-) -> list[int]:
-    """Physical groups after ``occ.fragment``: each source's pieces under its name, the rest "air".
+@dataclass(frozen=True)
+class RuledSolid:
+    """Solid between the quadrilaterals ``corners[:4]`` and ``corners[4:]`` ((8, 3), m)."""
 
-    Args:
-        dim: dimension of the regions (2: axisymmetric, 3: solid).
-        names: group name of each source (sources may share a name).
-        pieces: per source, the (dim, tag) pairs it became in the fragment
-            (``mapping[1:]`` of ``occ.fragment`` with the air region first).
+    corners: tuple[tuple[float, ...], ...]
 
-    Returns:
-        The sorted tags of all source pieces.
+
+@dataclass(frozen=True)
+class IronBody:
+    """A named 3D iron body: the union of ``parts``."""
+
+    name: str
+    parts: tuple[Ball | Frustum | Box | RuledSolid, ...]
+
+
+@dataclass(frozen=True)
+class HalfDisk:
+    """The half-disk r ≥ 0 of ``radius`` (m) about (0, ``z``) in the (r, z) plane."""
+
+    z: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A polygon of (r, z) ``points`` (m), r ≥ 0."""
+
+    points: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class IronProfile:
+    """A named meridian section of an axisymmetric iron body: the union of ``parts``."""
+
+    name: str
+    parts: tuple[HalfDisk | Polygon, ...]
+
+
+def _add_solid(occ: Any, part: Ball | Frustum | Box | RuledSolid) -> int:
+    """Add one 3D primitive to the OCC model; returns its volume tag."""
+    if isinstance(part, Ball):
+        return int(occ.addSphere(*part.center, part.radius))
+    if isinstance(part, Frustum):
+        return int(occ.addCone(*part.base, *part.vector, part.r0, part.r1))
+    if isinstance(part, Box):
+        sx, sy, sz = part.size
+        tag = occ.addBox(-sx / 2, -sy / 2, -sz / 2, sx, sy, sz)
+        affine = np.zeros(12)
+        affine[[0, 1, 2, 4, 5, 6, 8, 9, 10]] = np.asarray(part.rotation).ravel()
+        affine[[3, 7, 11]] = part.center
+        occ.affineTransform([(3, tag)], list(affine))
+        return int(tag)
+    loops = []
+    for quad in (part.corners[:4], part.corners[4:]):
+        pts = [occ.addPoint(*c) for c in quad]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % 4]) for i in range(4)]
+        loops.append(occ.addCurveLoop(lines))
+    out = occ.addThruSections(loops, makeSolid=True, makeRuled=True)
+    return int(next(t for d, t in out if d == 3))
+
+
+def _add_profile(occ: Any, part: HalfDisk | Polygon, r_air: float) -> int:
+    """Add one (r, z) primitive to the OCC model (z = 0 plane, x = r, y = z); surface tag."""
+    if isinstance(part, HalfDisk):
+        disk = occ.addDisk(0, part.z, 0, part.radius, part.radius)
+        left = occ.addRectangle(
+            -2 * part.radius, part.z - 2 * part.radius, 0, 2 * part.radius, 4 * part.radius
+        )
+        out, _ = occ.cut([(2, disk)], [(2, left)])
+        return int(out[0][1])
+    pts = [occ.addPoint(r, z, 0) for r, z in part.points]
+    lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+    return int(occ.addPlaneSurface([occ.addCurveLoop(lines)]))
+
+
+def _union(occ: Any, dim: int, tags: list[int]) -> list[int]:
+    """Fuse the entities ``tags`` of dimension ``dim`` (one body); returns the resulting tags."""
+    if len(tags) == 1:
+        return tags
+    out, _ = occ.fuse([(dim, tags[0])], [(dim, t) for t in tags[1:]])
+    return [t for d, t in out if d == dim]
+
+
+def _name_groups(gmsh: Any, dim: int, names: Sequence[str], mapping: list[Any]) -> list[int]:
+    """Physical groups after ``occ.fragment``: each body's pieces under its name, the rest air.
+
+    ``mapping``: per body, the (dim, tag) pairs it became (``mapping[1:]`` of
+    ``occ.fragment`` with the air region first). Returns the sorted iron tags.
     """
     named: dict[str, list[int]] = {}
     used: set[int] = set()
-    for name, piece in zip(names, pieces, strict=True):
-        tags = [t for d, t in piece if d == dim]
+    for name, piece in zip(names, mapping, strict=True):
+        tags = [t for d, t in piece if d == dim and t not in used]
         named.setdefault(name, []).extend(tags)
         used.update(tags)
     air = [t for d, t in gmsh.model.getEntities(dim) if t not in used]
@@ -80,53 +171,38 @@ def _name_pieces(
 def _size_fields(
     gmsh: Any,
     dim: int,
-    source_entities: list[int],
-    h_source: float,
+    iron: list[int],
+    h_iron: float,
+    grading: float,
     r_air: float,
     box: np.ndarray | None,
     h_workspace: float | None,
 ) -> None:
-    """Background size: fine at the sources, graded with distance, refined in the workspace box."""
+    """Background size: h_iron at the iron + grading × distance; ≤ h_workspace in the box."""
     f = gmsh.model.mesh.field
+    boundary = gmsh.model.getBoundary([(dim, t) for t in iron], combined=False, oriented=False)
     dist = f.add("Distance")
-    if dim == 2:
-        curves = gmsh.model.getBoundary([(2, s) for s in source_entities], oriented=False)
-        f.setNumbers(dist, "CurvesList", [abs(c[1]) for c in curves])
-    else:
-        f.setNumbers(dist, "SurfacesList", source_entities)
-    f.setNumber(dist, "Sampling", 40)
+    f.setNumbers(
+        dist, "CurvesList" if dim == 2 else "SurfacesList", sorted({abs(t) for _, t in boundary})
+    )
+    f.setNumber(dist, "Sampling", 60)
+    h_max = max(r_air / 8, h_iron)
     thr = f.add("Threshold")
     f.setNumber(thr, "InField", dist)
-    f.setNumber(thr, "SizeMin", h_source)
-    f.setNumber(thr, "SizeMax", r_air / 8)
-    f.setNumber(thr, "DistMin", h_source)
-    f.setNumber(thr, "DistMax", r_air)
+    f.setNumber(thr, "SizeMin", h_iron)
+    f.setNumber(thr, "SizeMax", h_max)
+    f.setNumber(thr, "DistMin", 0.0)
+    f.setNumber(thr, "DistMax", (h_max - h_iron) / grading)
     fields = [thr]
-    if dim == 3:  # field singular (log) at a magnet's edges: refine them further
-        edges = gmsh.model.getBoundary(
-            [(2, s) for s in source_entities], combined=False, oriented=False
-        )
-        dist_e = f.add("Distance")
-        f.setNumbers(dist_e, "CurvesList", sorted({abs(e[1]) for e in edges}))
-        f.setNumber(dist_e, "Sampling", 40)
-        thr_e = f.add("Threshold")
-        f.setNumber(thr_e, "InField", dist_e)
-        f.setNumber(thr_e, "SizeMin", h_source / 3)
-        f.setNumber(thr_e, "SizeMax", r_air / 8)
-        f.setNumber(thr_e, "DistMin", h_source / 3)
-        f.setNumber(thr_e, "DistMax", r_air)
-        fields.append(thr_e)
     if box is not None and h_workspace is not None:
         b = f.add("Box")
         f.setNumber(b, "VIn", h_workspace)
-        f.setNumber(b, "VOut", r_air)
+        f.setNumber(b, "VOut", h_max)
         lo, hi = box
-        for k, ax in enumerate("XYZ"[:3]):
-            lo_k = lo[k] if k < dim else -1.0
-            hi_k = hi[k] if k < dim else 1.0
-            f.setNumber(b, f"{ax}Min", float(lo_k))
-            f.setNumber(b, f"{ax}Max", float(hi_k))
-        f.setNumber(b, "Thickness", float(np.max(hi - lo)))
+        for k, ax in enumerate("XYZ"):
+            f.setNumber(b, f"{ax}Min", float(lo[k]) if k < dim else -1.0)
+            f.setNumber(b, f"{ax}Max", float(hi[k]) if k < dim else 1.0)
+        f.setNumber(b, "Thickness", float(np.max(hi[:dim] - lo[:dim])))
         fields.append(b)
     mn = f.add("Min")
     f.setNumbers(mn, "FieldsList", fields)
@@ -136,90 +212,85 @@ def _size_fields(
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
 
-def axisymmetric_builder(
-    regions: Sequence[RectRegion],
+def solid_builder(
+    bodies: Sequence[IronBody],
     r_air: float,
     *,
-    h_source: float,
+    center: Sequence[float],
+    h_iron: float,
+    grading: float = 0.3,
     workspace: np.ndarray | None = None,
     h_workspace: float | None = None,
+    order: int = 1,
 ) -> Callable[[Any], None]:
-    """Builder of the (r, z) half-disk of radius ``r_air`` (m) containing ``regions``.
+    """Builder of a ball of radius ``r_air`` (m) about ``center`` containing the iron ``bodies``.
 
     Args:
-        regions: source rectangles (must lie inside the half-disk, r0 >= 0).
-        r_air: radius of the air region, m.
-        h_source: element size in/near the sources, m.
-        workspace: optional (2, 2) box [[r_min, z_min], [r_max, z_max]] refined to ``h_workspace``.
-        h_workspace: element size in ``workspace``, m.
+        bodies: iron bodies (group ``name`` each), inside the ball.
+        r_air: radius of the air ball, m.
+        center: its centre (3,), m.
+        h_iron: element size on the iron surfaces, m.
+        grading: growth of the element size per unit distance from the iron.
+        workspace: optional box (2, 3) [min, max] meshed at most at ``h_workspace``.
+        order: geometric order of the elements (1 or 2: curved).
     """
-    regions = list(regions)
-    for reg in regions:
-        corners = np.array([[reg.r1, reg.z0], [reg.r1, reg.z1]])
-        if reg.r0 < 0 or not reg.r1 > reg.r0 or not reg.z1 > reg.z0:
-            raise ValueError(f"region {reg.name}: empty or crosses the axis")
-        if np.any(np.linalg.norm(corners, axis=1) >= r_air):
-            raise ValueError(f"region {reg.name} reaches the outer boundary r_air = {r_air:g} m")
+    bodies = list(bodies)
 
     def build(gmsh: Any) -> None:
         occ = gmsh.model.occ
-        disk = occ.addDisk(0, 0, 0, r_air, r_air)
-        left = occ.addRectangle(-r_air, -r_air, 0, r_air, 2 * r_air)
-        half, _ = occ.cut([(2, disk)], [(2, left)])
-        rects = [occ.addRectangle(g.r0, g.z0, 0, g.r1 - g.r0, g.z1 - g.z0) for g in regions]
-        _, mapping = occ.fragment(half, [(2, t) for t in rects])
+        ball = occ.addSphere(*center, r_air)
+        body_tags = [_union(occ, 3, [_add_solid(occ, p) for p in b.parts]) for b in bodies]
+        tools = [(3, t) for tags in body_tags for t in tags]
+        _, mapping = occ.fragment([(3, ball)], tools)
         occ.synchronize()
-        used = _name_pieces(gmsh, 2, [g.name for g in regions], mapping[1:])
-        _size_fields(gmsh, 2, used, h_source, r_air, workspace, h_workspace)
-        gmsh.model.mesh.generate(2)
+        per_body, k = [], 1
+        for tags in body_tags:
+            per_body.append([pair for m in mapping[k : k + len(tags)] for pair in m])
+            k += len(tags)
+        iron = _name_groups(gmsh, 3, [b.name for b in bodies], per_body)
+        _size_fields(gmsh, 3, iron, h_iron, grading, r_air, workspace, h_workspace)
+        gmsh.model.mesh.generate(3)
+        if order > 1:
+            gmsh.model.mesh.setOrder(order)
 
     return build
 
 
-def solid_builder(
-    boxes: Sequence[BoxRegion],
+def axisymmetric_builder(
+    profiles: Sequence[IronProfile],
     r_air: float,
     *,
-    center: Sequence[float] = (0.0, 0.0, 0.0),
-    h_source: float,
+    z_center: float,
+    h_iron: float,
+    grading: float = 0.3,
     workspace: np.ndarray | None = None,
     h_workspace: float | None = None,
+    order: int = 1,
 ) -> Callable[[Any], None]:
-    """Builder of a ball of radius ``r_air`` (m) about ``center`` containing box magnets.
+    """Builder of the (r, z) half-disk of radius ``r_air`` about (0, ``z_center``), with iron.
 
-    Args:
-        boxes: magnets (group ``name`` each; all must lie inside the ball).
-        r_air: radius of the air ball, m.
-        h_source: element size at the magnets, m.
-        workspace: optional (2, 3) box [min, max] refined to ``h_workspace``.
+    The mesh lies in the plane z = 0 with x = r, y = z (gdim = 2). ``workspace``:
+    optional box [[r_min, z_min], [r_max, z_max]]; other arguments as :func:`solid_builder`.
     """
-    boxes = list(boxes)
-    c0 = np.asarray(center, dtype=float)
-    for b in boxes:
-        reach = np.linalg.norm(np.asarray(b.center) - c0) + 0.5 * np.linalg.norm(b.size)
-        if reach >= r_air:
-            raise ValueError(f"magnet {b.name} reaches the outer boundary r_air = {r_air:g} m")
+    profiles = list(profiles)
 
     def build(gmsh: Any) -> None:
         occ = gmsh.model.occ
-        ball = occ.addSphere(*c0, r_air)
-        tags = []
-        for b in boxes:
-            sx, sy, sz = b.size
-            t = occ.addBox(-sx / 2, -sy / 2, -sz / 2, sx, sy, sz)
-            R = np.asarray(b.rotation)
-            affine = np.zeros(12)
-            affine[[0, 1, 2, 4, 5, 6, 8, 9, 10]] = R.ravel()
-            affine[[3, 7, 11]] = b.center
-            occ.affineTransform([(3, t)], list(affine))
-            tags.append(t)
-        _, mapping = occ.fragment([(3, ball)], [(3, t) for t in tags])
+        air = _add_profile(occ, HalfDisk(z_center, r_air), r_air)
+        body_tags = [
+            _union(occ, 2, [_add_profile(occ, p, r_air) for p in b.parts]) for b in profiles
+        ]
+        tools = [(2, t) for tags in body_tags for t in tags]
+        _, mapping = occ.fragment([(2, air)], tools)
         occ.synchronize()
-        used = _name_pieces(gmsh, 3, [b.name for b in boxes], mapping[1:])
-        surfaces = gmsh.model.getBoundary([(3, t) for t in used], oriented=False)
-        _size_fields(
-            gmsh, 3, [abs(s[1]) for s in surfaces], h_source, r_air, workspace, h_workspace
-        )
-        gmsh.model.mesh.generate(3)
+        per_body, k = [], 1
+        for tags in body_tags:
+            per_body.append([pair for m in mapping[k : k + len(tags)] for pair in m])
+            k += len(tags)
+        iron = _name_groups(gmsh, 2, [b.name for b in profiles], per_body)
+        _size_fields(gmsh, 2, iron, h_iron, grading, r_air, workspace, h_workspace)
+        gmsh.model.mesh.generate(2)
+        if order > 1:
+            gmsh.model.mesh.setOrder(order)
 
     return build

@@ -21,6 +21,7 @@ and double after an easy one.
 
 from __future__ import annotations
 
+import functools
 import time as _time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -66,6 +67,30 @@ class SimulationResult:
     paths: dict[str, Path] = field(default_factory=dict)
     log: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+
+
+def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArray[np.float64]:
+    """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
+    found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
+    return np.unique(np.concatenate(found)) if found else np.zeros(0)
+
+
+class EventLog:
+    """Lines about a run's events, kept, and printed on rank 0 (above the progress bar)."""
+
+    def __init__(self, comm: MPI.Comm):
+        self.comm = comm
+        self.lines: list[str] = []
+        self.bar: Any = None
+
+    def say(self, msg: str) -> None:
+        """Record ``msg`` and show it on rank 0."""
+        self.lines.append(msg)
+        if self.comm.rank == 0:
+            if self.bar is not None:
+                self.bar.write(msg)
+            else:
+                print(msg, flush=True)
 
 
 class Simulation:
@@ -119,20 +144,24 @@ class Simulation:
             contact.attach(self.solver)
         self.observers: list[Any] = [*problem.contacts, *observers]
         self.observer_compile_time = compile_time
-        self.log: list[str] = []
-        self._bar: Any = None
-        self.controller = StepController(time, self.breakpoints, self._say)
+        self.events = EventLog(self.comm)
+        # no reference back to this object from its parts: a cycle through PETSc objects
+        # would leave their (collective) destruction to the garbage collector's timing
+        self.controller = StepController(
+            time,
+            functools.partial(switching_instants, [*problem.loads, *problem.contacts]),
+            self.events.say,
+        )
 
     @property
     def gdim(self) -> int:
         """Geometric dimension of the mesh."""
         return self.model.gdim
 
-    def breakpoints(self, t0: float, t1: float) -> npt.NDArray[np.float64]:
-        """Switching instants of the loads and contacts in (t0, t1] (s), sorted."""
-        parts: list[Any] = [*self.problem.loads, *self.problem.contacts]
-        found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
-        return np.unique(np.concatenate(found)) if found else np.zeros(0)
+    @property
+    def log(self) -> list[str]:
+        """Step-control and contact events so far, one line each."""
+        return self.events.lines
 
     # --- observation ------------------------------------------------------------------------
 
@@ -305,14 +334,6 @@ class Simulation:
         weight = model.mass_density * ufl.dot(ufl.as_vector(down.tolist()), w) * model.dx
         return load_norm(weight, model.displacement_bcs)
 
-    def _say(self, msg: str) -> None:
-        self.log.append(msg)
-        if self.comm.rank == 0:
-            if self._bar is not None:
-                self._bar.write(msg)
-            else:
-                print(msg, flush=True)
-
     # --- the run ----------------------------------------------------------------------------
 
     def run(self, writers: Sequence[Writer] = (), *, progress: bool = True) -> SimulationResult:
@@ -330,7 +351,7 @@ class Simulation:
         for w in writers:
             w.write(0, t, rows[0])
         if progress:
-            self._bar = progress_bar(
+            self.events.bar = progress_bar(
                 spec.end - spec.start, desc=self.name, unit="s", comm=self.comm
             )
         complete = False
@@ -346,17 +367,17 @@ class Simulation:
                 rows.append(row)
                 for contact in self.problem.contacts:
                     for message in contact.events():
-                        self._say(message)
+                        self.events.say(message)
                 for w in writers:
                     w.write(self.controller.steps, t, row)
-                if self._bar is not None:
-                    self._bar.update(dt)
-                    self._bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
+                if self.events.bar is not None:
+                    self.events.bar.update(dt)
+                    self.events.bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
             complete = True
         finally:
-            if self._bar is not None:
-                self._bar.close()
-                self._bar = None
+            if self.events.bar is not None:
+                self.events.bar.close()
+                self.events.bar = None
             for w in writers:
                 w.close()
             history = {k: np.array([r.get(k, np.nan) for r in rows]) for k in self.columns()}

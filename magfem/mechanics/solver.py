@@ -203,30 +203,33 @@ class NewtonSolver:
 
     def _wrap_callbacks(self, bcs: list[fem.DirichletBC], homogeneous: bool) -> None:
         """Re-register dolfinx's assembly callbacks with timers around them."""
+        # the callbacks hold what they use, not the problem or this object: the SNES holds
+        # the callbacks, and a cycle through a PETSc object is never collected (each leaked
+        # problem keeps its MPI communicators; a test session then runs out of them)
         problem = self.problem
         snes = problem.solver
+        u, F, J = problem.u, problem.F, problem.J
         timings = self.timings
+        residual_hooks, jacobian_hooks = self.residual_hooks, self.jacobian_hooks
         blocks: Any = problem.b.getAttr("_blocks")  # layout of block residuals, else None
 
         def residual(snes_: Any, x: Any, b: Any) -> None:
             t0 = time.perf_counter()
             if homogeneous:
                 x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-                fem_petsc.assign(x, problem.u)  # type: ignore[arg-type]
+                fem_petsc.assign(x, u)  # type: ignore[arg-type]
                 with b.localForm() as b_local:
                     b_local.set(0.0)
-                fem_petsc.assemble_vector(b, problem.F)  # type: ignore[arg-type]
+                fem_petsc.assemble_vector(b, F)  # type: ignore[arg-type]
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                for hook in self.residual_hooks:
+                for hook in residual_hooks:
                     hook(x, b)
                 fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             else:
-                fem_petsc.assemble_residual(
-                    snes_, x, b, problem.u, problem.F, problem.J, bcs, blocks
-                )
-                if self.residual_hooks:
-                    for hook in self.residual_hooks:
+                fem_petsc.assemble_residual(snes_, x, b, u, F, J, bcs, blocks)
+                if residual_hooks:
+                    for hook in residual_hooks:
                         hook(x, b)
                     # the hooks may have touched constrained rows: set them again to x − g
                     fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
@@ -236,8 +239,8 @@ class NewtonSolver:
 
         def jacobian(snes_: Any, x: Any, A: Any, P: Any) -> None:
             t0 = time.perf_counter()
-            fem_petsc.assemble_jacobian(snes_, x, A, P, problem.u, problem.J, None, bcs)
-            for hook in self.jacobian_hooks:
+            fem_petsc.assemble_jacobian(snes_, x, A, P, u, J, None, bcs)
+            for hook in jacobian_hooks:
                 hook(x, A)
             timings.jacobian += time.perf_counter() - t0
             timings.jacobian_calls += 1

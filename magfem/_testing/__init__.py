@@ -1,1 +1,0 @@
-"""Test-suite support that must be importable under mpirun (not user API)."""
