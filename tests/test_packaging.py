@@ -11,7 +11,7 @@ import tomllib
 # Part of every dolfinx 0.11 install (the PyPI wheel dolfinx-solver-real bundles them, a
 # conda-forge install brings them as its own packages): not declared on their own.
 WITH_DOLFINX = {"dolfinx", "dolfinx_solver", "petsc4py"}
-LOCAL = {"magfem", "verification", "benchmarks", "conftest", "test_dynamics"}
+LOCAL = {"magfem", "verification", "benchmarks", "conftest", "test_mechanics_simulation"}
 
 
 def _imports(paths):

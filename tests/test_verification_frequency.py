@@ -85,8 +85,8 @@ def test_narrow_shell_matches_beam_frequency(comm):
     Its rod is clamped at the inset patch edge (SHELL_CLAMP_INSET, free length
     + 0.41 h). Measured +0.66 % (0.5 mm) and +0.45 % (0.25 mm): the shell is a little
     stiffer than the beam, as in the static elastica (the partly suppressed
-    anticlastic curvature of a strip 3 h wide, tests/test_shell.py), so the bound is
-    7e-3 rather than the solid's 5e-3.
+    anticlastic curvature of a strip 3 h wide, tests/test_mechanics_models_shell.py), so the
+    bound is 7e-3 rather than the solid's 5e-3.
     """
     from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
 

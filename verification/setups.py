@@ -50,6 +50,34 @@ REMANENCE = 123e3  # A/m, through the thickness
 B_MAX = 0.4e-3  # T, end of the static ramp
 FRACTIONS = (0.25, 0.5, 0.75, 1.0)  # of the ramp, where the static angles are sampled
 
+
+STRIP_CANTILEVER: dict[str, Any] = {
+    "name": "strip",
+    "robot": {
+        "shape": "rectangle",
+        "thickness": "80 um",
+        "length": "7.5 mm",
+        "width": "4 mm",
+        "clamp_length": "1 mm",
+    },
+    "mesh": {"size": "0.5 mm", "model": "strip"},
+    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
+    "field": {
+        "sources": [
+            {
+                "kind": "uniform",
+                "flux_density": "2 mT",
+                "direction": [-1, 0, 0],
+                "waveform": {"kind": "square", "frequency": "20 Hz"},
+            }
+        ]
+    },
+    "time": {"end": "5 ms", "step": "0.25 ms"},
+    "output": {"csv": False, "vtx_every": 0, "plot": False},
+}
+"""A 7.5 mm, 80 µm strip bonded over 1 mm, in a 2 mT 20 Hz square wave (the dynamics tests'
+case table: plane strain, P2 at 0.5 mm, 5 ms)."""
+
 _NO_OUTPUT = {"csv": False, "vtx_every": 0, "plot": False}
 _NO_GRAVITY = {"gravity": [0, 0, 0]}
 

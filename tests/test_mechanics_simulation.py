@@ -19,31 +19,9 @@ from mpi4py import MPI
 from magfem.case import parse_case
 from magfem.mechanics.simulation import SimulationError
 from magfem.pipeline import build_simulation, simulate
+from verification.setups import STRIP_CANTILEVER
 
-BASE: dict[str, Any] = {
-    "name": "strip",
-    "robot": {
-        "shape": "rectangle",
-        "thickness": "80 um",
-        "length": "7.5 mm",
-        "width": "4 mm",
-        "clamp_length": "1 mm",
-    },
-    "mesh": {"size": "0.5 mm", "model": "strip"},
-    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
-    "field": {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "2 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "square", "frequency": "20 Hz"},
-            }
-        ]
-    },
-    "time": {"end": "5 ms", "step": "0.25 ms"},
-    "output": {"csv": False, "vtx_every": 0, "plot": False},
-}
+BASE: dict[str, Any] = STRIP_CANTILEVER
 
 
 def _case(**tables: dict[str, Any]) -> Any:

@@ -4,7 +4,7 @@ Checks against independent references: the hard-magnetic elastica (static,
 converging with the mesh), energy conservation of a free vibration (ρ∞ = 1),
 the exact derivative of the step residual (central differences, contact and
 friction active), and the serial history under ``mpirun -n 2``. Resting on
-the ground: tests/test_dynamics.py (parametrised over strip and shell).
+the ground: tests/test_mechanics_simulation.py (parametrised over strip and shell).
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ from typing import Any
 import numpy as np
 import pytest
 from mpi4py import MPI
-from test_dynamics import BASE as STRIP_BASE  # the same arm and drive as the strip tests
+from test_mechanics_simulation import (
+    BASE as STRIP_BASE,  # the same arm and drive as the strip tests
+)
 
 from magfem.case import parse_case
 from magfem.config import CaseError
