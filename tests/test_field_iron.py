@@ -74,6 +74,7 @@ def test_linear_iron_sphere_axisymmetric(comm):
     assert err["moment"] < 3e-7
 
 
+@pytest.mark.slow
 def test_linear_iron_sphere_3d(comm):
     solve = from_table(SolveSpec, {"geometry": "3d", "mesh_size": "1 mm"}, "solve")
     (reaction,) = solve_iron([_sphere()], [UniformField(B0)], solve, comm)
@@ -216,6 +217,7 @@ def test_iron_moves_rigidly_with_its_magnet(comm):
     assert np.linalg.norm(B0_[0]) > 2 * np.linalg.norm(m_term.field.flux_density(p0[:1])[0])
 
 
+@pytest.mark.slow
 def test_sphere_in_the_field_of_a_coaxial_magnet(comm):
     """A non-uniform source: the sphere against its Legendre-series solution, (r, z) and 3D."""
     R, L, zc, Br = 3e-3, 4e-3, 12.5e-3, 1.3  # magnet faces 5.5 and 9.5 mm above the sphere

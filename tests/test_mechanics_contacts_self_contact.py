@@ -109,6 +109,7 @@ def _case(contact: dict[str, Any], environment: dict[str, Any], time: dict[str, 
     )
 
 
+@pytest.mark.slow
 def test_bouncing_blocks_conserve_energy_and_touch_on_time(comm):
     gap, v, dt = 2e-5, 0.1, 1e-6
     case = _case(

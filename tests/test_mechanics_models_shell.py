@@ -40,6 +40,7 @@ def _case(**tables: dict[str, Any]) -> Any:
     return parse_case(data)
 
 
+@pytest.mark.slow
 def test_shell_converges_to_the_beam_elastica(comm):
     """Narrow arm (0.25 mm ≈ 3 t wide, one element across) ramped to 0.4 mT: beam modulus E.
 
@@ -66,6 +67,7 @@ def test_shell_converges_to_the_beam_elastica(comm):
     assert np.all(errors[2] < 0.2), errors  # the 0.13° offset of the converged shell, above
 
 
+@pytest.mark.slow
 def test_shell_conserves_energy_with_rho_one(comm):
     """Free bending vibration, no load, ρ∞ = 1, 1000 steps: total energy drift < 1e-3 (issue 4).
 

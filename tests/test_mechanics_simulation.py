@@ -60,6 +60,7 @@ def _free_vibration(comm, rho_inf: float, steps: int, dt: float) -> np.ndarray:
     return result.history["energy_total"]
 
 
+@pytest.mark.slow
 def test_rho_one_conserves_energy_over_1000_steps(comm):
     # ~4 periods of the first bending mode (f1 ≈ 4 Hz), 2° swing, ω Δt ≈ 0.03
     energy = _free_vibration(comm, 1.0, 1000, 1e-3)

@@ -90,6 +90,7 @@ def test_report_with_a_bad_study_file_exits_2_with_one_line(tmp_path, monkeypatc
     assert lines[0].startswith("magfem: error: cases/studies/bad.toml: repeat = 2: unknown key")
 
 
+@pytest.mark.slow
 @pytest.mark.serial  # each run is its own process; the driver is serial
 def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monkeypatch):
     """``run=True`` sweeps the selected study (1 ms of the self-clean strip at the tests'

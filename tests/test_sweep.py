@@ -111,6 +111,7 @@ def _summary(path):
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_killed_sweep_resumes_without_recomputing(tmp_path):
     """Kill the whole sweep (driver + running point) after the first point; rerun."""

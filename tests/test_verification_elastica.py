@@ -70,6 +70,7 @@ def test_strip_plane_strain_converges_to_elastica(comm):
     assert np.all(errors[2] < 0.15), errors
 
 
+@pytest.mark.slow
 @pytest.mark.serial  # ~1 min of 3D assembly; the strip test covers the parallel path
 def test_narrow_solid_matches_beam_elastica(comm):
     """3D P2 solid of a narrow arm (0.25 mm ≈ 3 h wide, one element across): beam modulus E.
@@ -131,6 +132,7 @@ def test_strip_rigid_root_converges_to_elastica(comm):
     assert np.all(errors[2] < 0.005), errors
 
 
+@pytest.mark.slow
 @pytest.mark.serial  # ~40 s of 3D assembly; the strip test above covers the parallel path
 def test_narrow_solid_rigid_root_converges_to_beam_elastica(comm):
     """3D P2 narrow arm (0.25 mm ≈ 3 h wide) with a rigid root block: beam modulus E = 9μ/4.
@@ -164,6 +166,7 @@ def test_narrow_solid_rigid_root_converges_to_beam_elastica(comm):
     assert np.all(errors[1] < 0.02), errors
 
 
+@pytest.mark.slow
 def test_bonded_root_compliance_is_the_shell_clamp_inset(comm):
     """The resolved bonded strip bends like the elastica of L_free + SHELL_CLAMP_INSET·t.
 

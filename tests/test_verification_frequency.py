@@ -65,6 +65,7 @@ def test_plane_stress_strip_matches_beam_frequency(comm):
     assert abs(f / beam - 1) < 5e-3, f / beam - 1  # measured -2.5e-3
 
 
+@pytest.mark.slow
 @pytest.mark.serial  # 3D assembly; the strips cover the parallel path
 def test_narrow_solid_matches_beam_frequency(comm):
     """3D P2 solid, 0.25 mm ≈ 3 h wide (one element across): a beam, E' = E.
@@ -79,6 +80,7 @@ def test_narrow_solid_matches_beam_frequency(comm):
     assert abs(f / beam - 1) < 5e-3, f / beam - 1
 
 
+@pytest.mark.slow
 def test_narrow_shell_matches_beam_frequency(comm):
     """The shell (P2, 0.25 mm ≈ 3 h wide, one element across): a beam, E' = E.
 
