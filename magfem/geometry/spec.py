@@ -145,6 +145,10 @@ uniform-width arm (plane stress/strain); ``surface``: 2D mid-surface of the
 outline (in 3D space, at z = thickness/2)."""
 
 
+ROOTS = ("bonded", "rigid")
+"""``[mesh] root``: how the bonded patch holds the membrane (:class:`MeshSpec`)."""
+
+
 @dataclass(frozen=True)
 class MeshSpec:
     """``[mesh]``: how the robot is discretised. Only ``size`` is required.
@@ -160,6 +164,14 @@ class MeshSpec:
     element size across arms that run along x (the beam-like shapes), whose
     bending varies along the arm: ``size = 0.25mm, size_across = 1mm`` resolves
     the bending like a 0.25 mm mesh with a quarter of its elements.
+
+    ``root`` says how the bonded patch (the ``clamp`` group) holds the
+    membrane. ``bonded`` (default) is the experiments' glued bottom face: the
+    solid and strip hold that face only, so the membrane above it is as
+    compliant as it is; the shell, which has no bottom face, clamps the patch
+    less 0.41 thicknesses at its free edges, the measured compliance of the
+    bonded root (docs/verification.md). ``rigid`` holds the whole patch
+    through the thickness up to its edge: the textbook clamp of beam theory.
     """
 
     size: float = quantity(unit="m", gt=0, doc="in-plane element size")
@@ -170,6 +182,12 @@ class MeshSpec:
     tip_size: float | None = quantity(None, "m", gt=0, doc="element size at the arm tips")
     size_across: float | None = quantity(
         None, "m", gt=0, doc="element size across arms along x (default size)"
+    )
+    root: str = option(
+        "bonded",
+        ROOTS,
+        doc="how the clamp patch holds the membrane: bonded (its bottom face glued) or rigid "
+        "(held through the thickness up to the patch's edge)",
     )
 
     def __post_init__(self) -> None:
