@@ -37,7 +37,8 @@ SI, status, wall time, and the point's summary scalars) and
 first parameter, one line per combination of the others).
 
 Summary scalars (:func:`summarize_history`) are computed from each run's
-``history.csv`` by :func:`magfem.mechanics.observers.history_summary`: per arm
+``history.csv`` (:func:`magfem.mechanics.columns.read_history`) by
+:func:`magfem.mechanics.observers.history_summary`: per arm
 the largest angle over the first half period, one and two periods of the
 first periodic source and over the run, the final angle, the midline
 observables; the largest strain, energy and power density, self-contact
@@ -71,6 +72,7 @@ from matplotlib.figure import Figure
 
 from magfem.case import load_case
 from magfem.config import CaseError
+from magfem.mechanics.columns import read_history
 from magfem.mechanics.observers import history_summary
 
 __all__ = [
@@ -215,11 +217,9 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     hist = run_dir / "history.csv"
     if not hist.is_file():
         return {}
-    with hist.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    if not rows:
+    cols, _ = read_history(hist)
+    if not cols or len(cols.get("time", ())) == 0:
         return {}
-    cols = {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
     resolved: dict[str, Any] = {}
     if (run_dir / "case.resolved.toml").is_file():
         resolved = tomllib.loads((run_dir / "case.resolved.toml").read_text(encoding="utf-8"))
@@ -322,7 +322,7 @@ class _PointRunner:
         pdir = self.out / "points" / pt.ident
         pdir.mkdir(parents=True, exist_ok=True)
         cmd = [*self.prefix, sys.executable, "-m", "magfem", "run", str(self.case_path)]
-        cmd += ["--out", str(pdir), "-q"]
+        cmd += ["--out", str(pdir), "--overwrite", "-q"]  # a rerun replaces the point's run
         for item in [*self.base_overrides, *pt.overrides()]:
             cmd += ["--set", item]
         self.log(f"start {pt.ident} {json.dumps(pt.params)}")
@@ -335,8 +335,8 @@ class _PointRunner:
             with self.lock:
                 self.procs.pop(pt.ident, None)
         wall = time.perf_counter() - t0
-        if rc < 0:
-            self.log(f"killed {pt.ident} (signal {-rc})")
+        if rc < 0 or rc in (130, 143):  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
+            self.log(f"killed {pt.ident} (signal {-rc if rc < 0 else rc - 128})")
             return
         record = {
             "params": pt.params,
