@@ -11,6 +11,13 @@ to every rank, a batch system may signal only some) and stops on every rank
 at the same step. A second signal of the same kind takes the default action
 (the process ends at once, without a checkpoint).
 
+PETSc's own handlers (SIGTERM, SIGHUP, SIGPIPE, SIGSEGV, ...: they end the
+process with "Caught signal number 15 Terminate" and ``MPI_Abort``) are
+removed when a command starts (``PetscPopSignalHandler``, what the option
+``-no_signal_handler`` does at start-up): a SIGTERM outside a run's loop
+then ends the process as it would end any program, and a closed pipe is a
+``BrokenPipeError``.
+
 With ``immediate=True`` (commands without a time loop: mesh, field) the
 first signal raises :class:`magfem.errors.RunInterrupted` at once.
 """
@@ -24,6 +31,7 @@ from types import FrameType
 from typing import Any
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from magfem.errors import RunInterrupted
 
@@ -45,6 +53,9 @@ class StopSignals:
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> StopSignals:
+        PETSc.Sys.popSignalHandler()  # PETSc's handlers off (module docstring)
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGPIPE, signal.SIG_IGN)  # Python's start-up choice, back
         if threading.current_thread() is threading.main_thread():
             for signum in STOP_SIGNALS:
                 self._previous[signum] = signal.signal(signum, self._handle)

@@ -35,6 +35,24 @@ def test_a_signal_is_a_request_that_every_rank_agrees_on(comm):
     assert signal.getsignal(signal.SIGTERM) != stop._handle  # the handlers are given back
 
 
+def _signal_set(field: str) -> set[int]:
+    lines = Path("/proc/self/status").read_text().splitlines()
+    line = next(x for x in lines if x.startswith(field))
+    mask = int(line.split()[1], 16)
+    return {s for s in range(1, 32) if mask >> (s - 1) & 1}
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="reads /proc")
+def test_petsc_handlers_are_off_while_a_command_runs():
+    """PETSc catches SIGTERM (and SIGPIPE, SIGSEGV, ...) from its start: a SIGTERM would end
+    the job inside PETSc. While a command runs, SIGTERM is ours, and after it the default."""
+    with StopSignals():
+        assert signal.getsignal(signal.SIGTERM) not in (signal.SIG_DFL, None)
+        assert signal.SIGSEGV not in _signal_set("SigCgt")  # PETSc's handler is gone
+        assert signal.SIGPIPE in _signal_set("SigIgn")  # as Python sets it at start-up
+    assert signal.SIGTERM not in _signal_set("SigCgt")
+
+
 def _case_file(directory: Path) -> Path:
     data = copy.deepcopy(STRIP_CANTILEVER) | {"name": "signalled"}
     data["time"] = {"end": "1 s", "step": "0.25 ms"}  # far more steps than the test waits for
