@@ -319,9 +319,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     configure_logging(comm, level)
     failures = comm.Dup()
-    # a run stops at the end of a step on SIGINT/SIGTERM; other commands stop at once
+    # a run stops at the end of a step on SIGINT/SIGTERM, check/mesh/field at once; sweep and
+    # report keep Python's KeyboardInterrupt, on which they stop the runs they started
     with contextlib.ExitStack() as stack:
-        stop = stack.enter_context(StopSignals(immediate=args.command != "run"))
+        stop = StopSignals(immediate=args.command != "run")
+        if args.command not in _DRIVERS:
+            stack.enter_context(stop)
         try:
             status = _dispatch(args, comm, stop)
         except BaseException as err:  # every failure: one line and its status, on every rank
