@@ -52,7 +52,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
 }
 """name -> (case file, overrides). Outputs other than the history are switched off."""
 
-QUIET = ["output.vtx_every=0", "output.plot=false", "output.animation=false"]
+QUIET = ["output.vtx_every=0", "output.vtu_every=0", "output.plot=false", "output.animation=false"]
 
 
 def _run(name: str, outdir: Path) -> dict[str, np.ndarray]:
