@@ -1,4 +1,4 @@
-"""The package's shape: no import cycles, imports at module level.
+"""The package's shape: no import cycles, imports at module level, modules and functions small.
 
 The layering itself (no stage imports one above it) is import-linter's
 contract in pyproject.toml, checked by ``lint-imports`` in ``./dev test``.
@@ -13,6 +13,11 @@ import pytest
 
 OPTIONAL = {"magfem/__init__.py": {"dolfinx_solver"}}
 """Imports allowed inside a function or a try block: optional dependencies, per file."""
+
+MAX_MODULE_LINES = 500
+MAX_FUNCTION_LINES = 80
+SIZE_REASON = "# size:"
+"""A function longer than the limit must say why in a comment starting with this."""
 
 
 def _cycles(graph: grimp.ImportGraph) -> list[list[str]]:
@@ -114,3 +119,35 @@ def test_imports_are_at_module_level(repo):
 )
 def test_nested_import_finder(source, expected):
     assert _nested_imports(ast.parse(source)) == expected
+
+
+def _long_functions(source: str, limit: int) -> list[tuple[int, str, int]]:
+    """(line, name, length) of the functions over ``limit`` lines that give no size reason."""
+    lines = source.splitlines()
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            length = (node.end_lineno or node.lineno) - node.lineno + 1
+            body = lines[node.lineno - 1 : node.end_lineno]
+            if length > limit and not any(SIZE_REASON in line for line in body):
+                out.append((node.lineno, node.name, length))
+    return out
+
+
+def test_modules_and_functions_are_small(repo):
+    found = []
+    for path in sorted((repo / "magfem").rglob("*.py")):
+        rel = path.relative_to(repo).as_posix()
+        source = path.read_text(encoding="utf-8")
+        if len(source.splitlines()) > MAX_MODULE_LINES:
+            found.append(f"{rel}: {len(source.splitlines())} lines")
+        for line, name, length in _long_functions(source, MAX_FUNCTION_LINES):
+            found.append(f"{rel}:{line} {name}: {length} lines")
+    assert found == []
+
+
+def test_the_size_check_finds_a_long_function():
+    body = "".join(f"    x{i} = {i}\n" for i in range(10))
+    assert _long_functions(f"def f():\n{body}", 8) == [(1, "f", 11)]
+    assert _long_functions(f"def f():\n    {SIZE_REASON} a table\n{body}", 8) == []
+    assert _long_functions(f"def f():\n{body}", 11) == []

@@ -54,6 +54,8 @@ __all__ = [
     "plain_state",
     "read_checkpoint",
     "restore_plain_state",
+    "restore_run",
+    "run_state",
 ]
 
 FORMAT = 1
@@ -119,6 +121,57 @@ def load_part_state(part: Any, state: Mapping[str, Any] | None) -> None:
     """``part.load_state(state)`` when the part has memory."""
     if state is not None:
         part.load_state(state)
+
+
+def run_state(sim: Any) -> dict[str, Any]:
+    """A simulation's state on this rank at its last accepted step (:func:`restore_run`).
+
+    The integrator's arrays and constants of every unknown, the step
+    controller, every load, contact and observer with memory, the rows of
+    the history so far and the event log.
+    """
+    integ = sim.integrator
+    columns = sim.columns()
+    rows = np.array([[r.get(k, np.nan) for k in columns] for r in sim.rows], dtype=float)
+    return {
+        "layout": layout([p.u for p in integ.parts]),
+        "integrator": [part_state(p) or plain_state(p) for p in integ.parts],
+        "controller": sim.controller.state(),
+        "parts": [part_state(p) for p in [*sim.problem.loads, *sim.observers]],
+        "columns": columns,
+        "rows": rows,
+        "log": list(sim.log),
+    }
+
+
+def restore_run(sim: Any, state: Mapping[str, Any]) -> float:
+    """Set :func:`run_state` back on ``sim`` (same case, same ranks); returns the time t_n (s).
+
+    Raises:
+        CaseError: the state is of another mesh partition or another set of
+            history columns (collective check).
+    """
+    integ = sim.integrator
+    same = state["layout"] == layout([p.u for p in integ.parts])
+    same = same and list(state["columns"]) == sim.columns()
+    if not sim.comm.allreduce(same, op=MPI.LAND):
+        raise CaseError(
+            "--resume",
+            "checkpoint",
+            "written for another mesh partition or other outputs (same case and ranks needed)",
+        )
+    for part, saved in zip(integ.parts, state["integrator"], strict=True):
+        if callable(getattr(part, "state", None)):
+            load_part_state(part, saved)
+        else:
+            restore_plain_state(part, saved)
+    sim.controller.load_state(state["controller"])
+    for part, saved in zip([*sim.problem.loads, *sim.observers], state["parts"], strict=True):
+        load_part_state(part, saved)
+    columns = list(state["columns"])
+    sim.rows = [dict(zip(columns, map(float, r), strict=True)) for r in state["rows"]]
+    sim.events.lines[:] = list(state["log"])
+    return float(integ.time)
 
 
 # --- files -------------------------------------------------------------------------------------

@@ -11,13 +11,11 @@ The initial acceleration is consistent: M a₀ = −R(u₀, v₀, 0; t₀) (a li
 solve), so gravity and a field switched on at t₀ act from the first step.
 
 After every step a :class:`~magfem.mechanics.checkpoint.RunControl` may
-write a checkpoint (:meth:`Simulation.state`) and stop the run on a signal
-(:class:`~magfem.errors.RunInterrupted`, after the writers have written the
-last state); a run given a checkpoint's state continues from it
-(:meth:`Simulation.restore`) and gives the rows the run would have given
-without the stop. A failed run (:class:`SimulationError`, raised on every
-rank alike) writes its last accepted state too; any other exception may
-concern one rank only and ends the loop without collective calls.
+write a checkpoint and stop the run on a signal (the writers write the last
+state first); a run restored from a checkpoint gives the rows the run
+would have given without the stop. A failed run (:class:`SimulationError`,
+on every rank alike) writes its last state too; any other exception may be
+one rank's only and ends the loop without collective calls.
 
 Quasi-static runs start from the static equilibrium under their constant
 loads (gravity) at t₀, reached by load continuation
@@ -44,15 +42,13 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
-from magfem.config import CaseError
 from magfem.errors import RunInterrupted
 from magfem.mechanics.checkpoint import (
     RunControl,
-    layout,
     load_part_state,
     part_state,
-    plain_state,
-    restore_plain_state,
+    restore_run,
+    run_state,
 )
 from magfem.mechanics.observers import Observer, history_summary
 from magfem.mechanics.output import Writer
@@ -363,8 +359,6 @@ class Simulation:
         weight = model.mass_density * ufl.dot(ufl.as_vector(down.tolist()), w) * model.dx
         return load_norm(weight, model.displacement_bcs)
 
-    # --- the run ----------------------------------------------------------------------------
-
     def run(
         self,
         writers: Sequence[Writer] = (),
@@ -375,8 +369,7 @@ class Simulation:
         """Integrate from ``time.start`` (or a checkpoint) to ``time.end``, handing rows to writers.
 
         Args:
-            control: checkpoints, stop signals and the state to resume from
-                (module docstring); None: none of these.
+            control: checkpoints, stop signals, the state to resume from (None: none).
 
         Raises:
             SimulationError: Newton failed ``max_cuts`` times in a row or below
@@ -478,57 +471,13 @@ class Simulation:
 
     # --- checkpoints ------------------------------------------------------------------------
 
-    def _parts(self) -> list[Any]:
-        return [*self.problem.loads, *self.observers]
-
     def state(self) -> dict[str, Any]:
-        """This rank's state at the last accepted step: what :meth:`restore` continues from.
-
-        The integrator's arrays and constants of every unknown, the step
-        controller, every load, contact and observer with memory, the rows of
-        the history so far and the event log.
-        """
-        integ = self.integrator
-        columns = self.columns()
-        rows = np.array([[r.get(k, np.nan) for k in columns] for r in self.rows], dtype=float)
-        return {
-            "layout": layout([p.u for p in integ.parts]),
-            "integrator": [part_state(p) or plain_state(p) for p in integ.parts],
-            "controller": self.controller.state(),
-            "parts": [part_state(p) for p in self._parts()],
-            "columns": columns,
-            "rows": rows,
-            "log": list(self.log),
-        }
+        """This rank's state at the last accepted step (:func:`.checkpoint.run_state`)."""
+        return run_state(self)
 
     def restore(self, state: dict[str, Any]) -> float:
-        """Continue from :meth:`state` (same case, same ranks); returns the time t_n (s).
-
-        Raises:
-            magfem.config.CaseError: the state is of another mesh partition or
-                another set of history columns (collective check).
-        """
-        integ = self.integrator
-        same = state["layout"] == layout([p.u for p in integ.parts])
-        same = same and list(state["columns"]) == self.columns()
-        if not self.comm.allreduce(same, op=MPI.LAND):
-            raise CaseError(
-                "--resume",
-                "checkpoint",
-                "written for another mesh partition or other outputs (same case and ranks needed)",
-            )
-        for part, saved in zip(integ.parts, state["integrator"], strict=True):
-            if callable(getattr(part, "state", None)):
-                load_part_state(part, saved)
-            else:
-                restore_plain_state(part, saved)
-        self.controller.load_state(state["controller"])
-        for part, saved in zip(self._parts(), state["parts"], strict=True):
-            load_part_state(part, saved)
-        columns = list(state["columns"])
-        self.rows = [dict(zip(columns, map(float, r), strict=True)) for r in state["rows"]]
-        self.events.lines[:] = list(state["log"])
-        return float(integ.time)
+        """Continue from :meth:`state` (:func:`.checkpoint.restore_run`); returns t_n (s)."""
+        return restore_run(self, state)
 
     def summary(self, history: dict[str, npt.NDArray[np.float64]]) -> dict[str, float]:
         """Step counts, the history's summary scalars and the contacts' (identical on all ranks)."""
