@@ -7,6 +7,7 @@ import copy
 import itertools
 import json
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from magfem.case import parse_case
 from magfem.config import CaseError, to_table
 from magfem.errors import RunInterrupted
 from magfem.mechanics.checkpoint import (
+    Checkpointer,
     check_resumable,
     plain_state,
     read_checkpoint,
@@ -122,3 +124,15 @@ def test_plain_state_round_trips_functions_constants_and_numbers(comm):
     restore_plain_state(part, saved | {"pair": [1, 2]})  # JSON gives lists back
     np.testing.assert_array_equal(part.f.x.array, np.arange(part.f.x.array.size))
     assert float(part.c.value) == 2.0 and part.time == 1.5 and part.pair == (1, 2)
+
+
+def test_checkpoints_fall_due_by_steps_and_by_wall_time(comm, shared_tmp):
+    by_steps = Checkpointer(shared_tmp / "c", comm, every=3)
+    assert [s for s in range(1, 10) if by_steps.due(s)] == [3, 6, 9]
+    by_time = Checkpointer(shared_tmp / "c", comm, interval=0.05)
+    assert not by_time.due(1)
+    time.sleep(0.06)
+    assert by_time.due(2)
+    by_time.last_wall = time.monotonic()  # what write() does
+    assert not by_time.due(3)
+    assert not Checkpointer(shared_tmp / "c", comm).due(1)  # neither: never
