@@ -4,11 +4,13 @@ it and stays silent just before it (a test that cannot pass by warning always)."
 from __future__ import annotations
 
 import copy
+import logging
 import math
 
 import pytest
 
 from magfem.case import parse_case
+from magfem.pipeline import build_simulation
 from magfem.sanity import SWITCH_ROTATION, SwitchWatch, implausible
 from verification.setups import STRIP_CANTILEVER
 
@@ -69,3 +71,16 @@ def test_a_turn_after_a_switch_warns_once():
     watch.write(6, 3.0, {"angle_arm": 0.0})
     assert len(warnings) == 1 and "t = 2 s" in warnings[0]
     assert f"{math.degrees(2 * SWITCH_ROTATION):.3g} deg" in warnings[0]
+
+
+@pytest.mark.parametrize(("radius", "warns"), [("1 mm", False), ("3 mm", True)])
+def test_supports_that_hold_most_of_the_body_warn(radius, warns, comm, caplog):
+    """A 7.5 mm strip pinned within a radius of its middle: 1 mm holds ~25 % of the nodes,
+    3 mm ~80 % (the threshold is 50 %)."""
+    data = copy.deepcopy(STRIP_CANTILEVER) | {"mesh": {"size": "1 mm", "model": "strip"}}
+    data["environment"] = {"clamped": [], "fixed_point": [3.75e-3, 0, 0], "fixed_radius": radius}
+    case = parse_case(data)
+    with caplog.at_level(logging.WARNING, logger="magfem"):
+        build_simulation(case, comm)
+    found = [r.getMessage() for r in caplog.records if "the supports" in r.getMessage()]
+    assert bool(found) == warns, found
