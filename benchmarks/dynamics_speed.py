@@ -16,9 +16,9 @@ loaded machine) next to wall time:
 From the repository root::
 
     .venv/bin/python -m benchmarks.dynamics_speed assembly
-    .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=0.01 --save /tmp/a.npy
+    .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms --save /tmp/a.npy
     .venv/bin/python -m benchmarks.dynamics_speed compare /tmp/ref.npy /tmp/a.npy
-    .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=0.01
+    .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms
 """
 
 from __future__ import annotations

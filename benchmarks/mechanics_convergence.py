@@ -210,7 +210,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    common = [f"time.end={args.window}", "output.csv=false", "output.vtx_every=0"]
+    common = [f"time.end={args.window!r}s", "output.csv=false", "output.vtx_every=0"]
     common += ["output.plot=false", *args.set]
     rank0_print(f"{comm.size} rank(s); window {args.window * 1e3:g} ms")
 
@@ -226,9 +226,10 @@ def main() -> None:
     ):
         label = _size_label(size, across)
         for dt in sorted(args.steps, reverse=True):
-            over = [*common, f"mesh.model={args.model}", f"mesh.size={size}", f"time.step={dt}"]
+            over = [*common, f"mesh.model={args.model}", f"mesh.size={size!r}m"]
+            over.append(f"time.step={dt!r}s")
             if across is not None:
-                over.append(f"mesh.size_across={across}")
+                over.append(f"mesh.size_across={across!r}m")
             r = run_one(Path(args.case), over, comm)
             if r is None:
                 failed.append(f"{label_of} size {label} mm, dt {dt * 1e3:g} ms")
@@ -252,11 +253,11 @@ def main() -> None:
     if not args.skip_strip:
         thickness = load_case(Path(args.case)).robot.thickness
         dt = min(args.steps)
-        base = [*common, f"robot.thickness={thickness}", f"time.step={dt}", "mesh.layers=1"]
+        base = [*common, f"robot.thickness={thickness!r}m", f"time.step={dt!r}s", "mesh.layers=1"]
         strip_rows = []
         for model, sizes in (("solid", args.solid_sizes), ("strip", args.strip_sizes)):
             for size in sorted(sizes, reverse=True):
-                over = [*base, f"mesh.model={model}", f"mesh.size={size}"]
+                over = [*base, f"mesh.model={model}", f"mesh.size={size!r}m"]
                 r = run_one(Path(args.strip_case), over, comm)
                 if r is None:
                     failed.append(f"{model} size {size * 1e3:g} mm (uniform-width arm)")

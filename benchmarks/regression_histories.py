@@ -23,7 +23,6 @@ import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
 
 # isort: on
 import argparse
-import csv
 import sys
 import time
 from pathlib import Path
@@ -32,6 +31,7 @@ import numpy as np
 from mpi4py import MPI
 
 from magfem.case import load_case
+from magfem.mechanics.columns import read_history
 from magfem.pipeline import simulate
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
@@ -52,7 +52,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
 }
 """name -> (case file, overrides). Outputs other than the history are switched off."""
 
-QUIET = ["output.vtx_every=0", "output.plot=false", "output.animation=false"]
+QUIET = ["output.vtx_every=0", "output.vtu_every=0", "output.plot=false", "output.animation=false"]
 
 
 def _run(name: str, outdir: Path) -> dict[str, np.ndarray]:
@@ -67,10 +67,7 @@ def _run(name: str, outdir: Path) -> dict[str, np.ndarray]:
 
 
 def _read(path: Path) -> dict[str, np.ndarray]:
-    with path.open() as f:
-        rows = list(csv.reader(f))
-    header, data = rows[0], np.array(rows[1:], dtype=float)
-    return {k: data[:, i] for i, k in enumerate(header)}
+    return read_history(path)[0]  # headers with units (time [s]) or without
 
 
 def _compare(ref: dict[str, np.ndarray], new: dict[str, np.ndarray]) -> tuple[float, str]:

@@ -19,16 +19,20 @@ table           dataclass                               owner module
 ``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
 =============== ======================================= =====================
 
-Quantities are SI numbers or strings with units (``"80 um"``), converted
-once here. Every problem raises :class:`magfem.config.CaseError` whose
-message names the file, the key, the value and what is allowed. Values can
-be overridden from the command line with ``--set table.key=value``.
+Quantities are strings with units (``"80 um"``), converted once here to SI.
+A case file (:func:`load_case`) must give the unit of every nonzero
+quantity unless it says ``units = "SI"`` at the top; a table built in code
+(:func:`parse_case`) may give SI numbers. Every problem raises
+:class:`magfem.config.CaseError` whose message names the file, the key, the
+value and what is allowed. Values can be overridden from the command line
+with ``--set table.key=value``.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import re
 import tomllib
 import typing
 from collections.abc import Iterable, Mapping
@@ -53,6 +57,7 @@ from magfem.mechanics.spec import (
     SolverSpec,
     TimeSpec,
 )
+from magfem.units import bare_numbers
 
 __all__ = [
     "Case",
@@ -112,20 +117,60 @@ def _check_consistency(case: Case) -> None:
     check_mesh_for_robot(case.robot, case.mesh)
 
 
-def parse_case(data: Mapping[str, Any]) -> Case:
-    """Validate a parsed TOML document into a :class:`Case` (no file involved)."""
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}")
+UNITS_KEY = "units"
+"""Top-level key: ``units = "SI"`` makes bare numbers SI in a case file."""
+PROVENANCE_KEY = "provenance"
+"""Top-level table written into resolved cases (versions, commit); ignored on input."""
+_INFO_KEYS = (UNITS_KEY, PROVENANCE_KEY)
+
+
+def _check_name(raw: object) -> None:
+    """A case name is a plain file name: it names the output folder and the mesh file."""
+    if not isinstance(raw, str) or not raw.strip():
+        raise CaseError("name", raw if raw is not None else MISSING, "must be a non-empty string")
+    if _NAME.fullmatch(raw) is None or ".." in raw:
+        raise CaseError(
+            "name",
+            raw,
+            "must be a plain file name: letters, digits and _ . + - starting with a letter "
+            "or digit, no / or .., at most 100 characters",
+        )
+
+
+def _units_declared(data: Mapping[str, Any]) -> bool:
+    """Whether the document says ``units = "SI"`` (bare numbers are SI)."""
+    if UNITS_KEY not in data:
+        return False
+    if data[UNITS_KEY] != "SI":
+        raise CaseError(UNITS_KEY, data[UNITS_KEY], 'must be "SI" (or left out: units required)')
+    return True
+
+
+def parse_case(data: Mapping[str, Any], *, require_units: bool = False) -> Case:
+    """Validate a parsed TOML document into a :class:`Case` (no file involved).
+
+    Args:
+        require_units: nonzero quantities need units unless the document says
+            ``units = "SI"`` (case files); False: bare numbers are SI (tables
+            built in code).
+    """
     if not data:
         raise CaseError(
             "(file)",
             MISSING,
             "the case is empty; it needs at least name, [robot], [mesh], [material]",
         )
-    for key in ("name", "description"):
-        raw = data.get(key, "")
-        if key in data and (not isinstance(raw, str) or (key == "name" and not raw.strip())):
-            raise CaseError(key, raw, "must be a non-empty string")
-    case = build_fields(Case, data, "")
-    _check_consistency(case)
+    bare_si = _units_declared(data) or not require_units
+    data = {k: v for k, v in data.items() if k not in _INFO_KEYS}
+    if "name" in data:
+        _check_name(data["name"])
+    raw = data.get("description", "")
+    if not isinstance(raw, str):
+        raise CaseError("description", raw, "must be a string")
+    with bare_numbers(bare_si):
+        case = build_fields(Case, data, "")
+        _check_consistency(case)
     return case
 
 
@@ -147,7 +192,7 @@ def apply_overrides(data: dict[str, Any], overrides: Iterable[str]) -> dict[str,
     out = copy.deepcopy(data)
     for item in overrides:
         if "=" not in item:
-            raise CaseError("--set", item, "expected KEY=VALUE, e.g. time.end=0.1")
+            raise CaseError("--set", item, "expected KEY=VALUE, e.g. time.end=100ms")
         key, value = item.split("=", 1)
         parts = key.strip().split(".")
         node: Any = out
@@ -179,13 +224,21 @@ class FieldCase:
     description: str = ""
 
 
-def parse_field_case(data: Mapping[str, Any]) -> Case | FieldCase:
+def parse_field_case(data: Mapping[str, Any], *, require_units: bool = False) -> Case | FieldCase:
     """A :class:`Case` if the document has ``[robot]``, else a :class:`FieldCase`.
 
     Without ``[robot]`` the other tables that are present are still validated.
+    ``require_units`` as for :func:`parse_case`.
     """
     if "robot" in data:
-        return parse_case(data)
+        return parse_case(data, require_units=require_units)
+    bare_si = _units_declared(data) or not require_units
+    data = {k: v for k, v in data.items() if k not in _INFO_KEYS}
+    with bare_numbers(bare_si):
+        return _parse_field_only(data)
+
+
+def _parse_field_only(data: Mapping[str, Any]) -> FieldCase:
     check_keys(data, [f.name for f in dataclasses.fields(Case)], "")
     hints = typing.get_type_hints(Case)
     for f in dataclasses.fields(Case):
@@ -205,10 +258,10 @@ def parse_field_case(data: Mapping[str, Any]) -> Case | FieldCase:
             if not isinstance(entry, Mapping):
                 raise CaseError(f"{f.name}[{i}]", entry, "must be a table")
             from_table(item, entry, f"{f.name}[{i}]")
-    for key in ("name", "description"):
-        raw = data.get(key, "")
-        if not isinstance(raw, str) or (key == "name" and not raw.strip()):
-            raise CaseError(key, raw or MISSING, "must be a non-empty string")
+    _check_name(data.get("name"))
+    raw = data.get("description", "")
+    if not isinstance(raw, str):
+        raise CaseError("description", raw, "must be a string")
     field = from_table(FieldSpec, data.get("field", {}), "field")
     return FieldCase(name=data["name"], field=field, description=data.get("description", ""))
 
@@ -217,7 +270,7 @@ def load_field_case(path: str | Path, overrides: Iterable[str] = ()) -> Case | F
     """Read, override and validate a case file for ``magfem field`` (``[robot]`` optional)."""
     data, source = _read(path, overrides)
     try:
-        return parse_field_case(data)
+        return parse_field_case(data, require_units=True)
     except CaseError as err:
         raise err.with_source(source) from None
 
@@ -253,16 +306,24 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
     """
     data, source = _read(path, overrides)
     try:
-        return parse_case(data)
+        return parse_case(data, require_units=True)
     except CaseError as err:
         raise err.with_source(source) from None
 
 
-def write_resolved_case(case: Case | FieldCase, path: str | Path) -> Path:
-    """Write the case with all defaults filled in, SI numbers, as TOML."""
+def write_resolved_case(
+    case: Case | FieldCase, path: str | Path, *, provenance: Mapping[str, str] | None = None
+) -> Path:
+    """Write the case with all defaults filled in, SI numbers (``units = "SI"``), as TOML.
+
+    ``provenance`` (versions, commit) goes into the table ``[provenance]``,
+    which :func:`parse_case` ignores: the file reads back as the same case.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    table = to_table(case)
+    table = {UNITS_KEY: "SI"} | to_table(case)
+    if provenance:
+        table[PROVENANCE_KEY] = dict(provenance)
     header = "# Resolved case written by magfem: every value in SI units, defaults filled in.\n"
     path.write_text(header + tomli_w.dumps(table), encoding="utf-8")
     return path

@@ -56,9 +56,13 @@ tables; do not edit by hand (`tests/test_casedoc.py` fails when this page and
 the code disagree). How to write and run a case: README.md and
 docs/running.md; what the physics keys mean: docs/physics.md.
 
-- Quantities are SI numbers or strings with a unit of the same dimension:
-  `thickness = "80 um"`, `flux_density = "2 mT"`, `step = 2.5e-4`. The
-  defaults below are written as such strings; `um`/`µm` are micrometres.
+- Quantities are strings with a unit of the same dimension:
+  `thickness = "80 um"`, `flux_density = "2 mT"`, `step = "0.25 ms"`. A
+  bare number (`step = 2.5e-4`) is an error for a quantity with a unit,
+  except zero, unless the file says `units = "SI"` at the top: then bare
+  numbers are SI (as in the `case.resolved.toml` a run writes). Values that
+  are not finite, overflow or underflow are errors. The defaults below are
+  written with units; `um`/`µm` are micrometres.
 - Units: {units}, with the prefixes {prefixes} (not on {unprefixed});
   products and quotients with integer powers: `kg/m^3`, `m/s^2`, `kA/m`.
 - A key left out takes its default; a *required* key must be given; a key
@@ -296,11 +300,23 @@ def _robot_sections() -> Iterator[str]:
 def _top_level() -> list[str]:
     hints = typing.get_type_hints(Case)
     keys = [f.name for f in dataclasses.fields(Case) if hints[f.name] is str]
-    docs = {"name": "case name: the output folder's name", "description": "one line shown in logs"}
+    docs = {
+        "name": "case name: the output folder's name; letters, digits and `_ . + -`, "
+        "starting with a letter or digit (no `/`, no `..`), at most 100 characters",
+        "description": "one line shown in logs",
+    }
     rows = ["| key | value | default | meaning |", "| --- | --- | --- | --- |"]
     for f in dataclasses.fields(Case):
         if f.name in keys:
             rows.append(f"| `{f.name}` | string | {_default(f)} | {docs.get(f.name, '')} |")
+    rows.append(
+        '| `units` | string | (none) | `"SI"`: bare numbers of quantities are SI '
+        "(without it, every nonzero quantity needs a unit) |"
+    )
+    rows.append(
+        "| `[provenance]` | table | (none) | written by magfem into `case.resolved.toml` "
+        "(versions of magfem, dolfinx, PETSc, Python, the git commit); ignored on input |"
+    )
     return ["## Top-level keys", "", *rows, ""]
 
 

@@ -4,44 +4,64 @@
     magfem mesh  CASE [--out DIR] [--format F]  build the robot mesh, write DIR/<name>.msh (.vtu)
     magfem field CASE [--out DIR]               solve the applied field, write VTX/CSV/PNG
     magfem run   CASE [--out DIR]               mesh + field + dynamics, write all outputs
+                 [--resume DIR | --overwrite]   continue a stopped run / replace a previous one
     magfem sweep CASE --param NAME=VALUES ...   parameter sweep, resumable (magfem.sweep)
     magfem report [--run] [--only SCENE ...]    assemble docs/scenes.md (magfem.report)
 
+Every command takes ``-q/--quiet`` (warnings and errors only), ``-v/--verbose``
+(debug messages too) and ``--debug`` (tracebacks with errors).
+
 Safe under ``mpirun -n N``: every rank parses the case and takes part in the
-collective work, only rank 0 prints. Bad input gives one line on stderr,
-``magfem: error: FILE: KEY = VALUE: what is allowed``, and exit status 2,
-with no traceback.
+collective work, only rank 0 prints. Every failure ends with one line on
+stderr and an exit status per kind (:mod:`magfem.errors`): bad input
+``magfem: error: FILE: KEY = VALUE: what is allowed`` and status 2, solver
+3, I/O 4, SIGINT/SIGTERM during a run 130/143 after a checkpoint; no
+traceback unless ``--debug``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from magfem import __version__
 from magfem.case import Case, FieldCase, load_case, load_field_case, write_resolved_case
 from magfem.config import CaseError
+from magfem.errors import EXIT_FAILED, RunInterrupted, end_with
 from magfem.field.run import run_field
 from magfem.geometry.export import export_robot_mesh
 from magfem.geometry.robot_mesh import create_robot_mesh
-from magfem.parallel import rank0_print
+from magfem.mechanics.solver_options import check_petsc_options
+from magfem.parallel import configure_logging, root_call
 from magfem.pipeline import simulate
+from magfem.provenance import provenance
 from magfem.report import build_report
+from magfem.rundir import prepare_run_directory
+from magfem.sanity import implausible
+from magfem.signals import StopSignals
 from magfem.sweep import parse_engine_options, parse_param, run_sweep
 
 __all__ = ["main"]
 
-EXIT_USAGE = 2
-EXIT_FAILURE = 1
+LOG = logging.getLogger("magfem.cli")
 
 
 def _say(comm: MPI.Comm, *args: object) -> None:
-    rank0_print(*args, comm=comm)
+    LOG.info(" ".join(str(a) for a in args))
+
+
+def _warn_implausible(case: Case) -> None:
+    for line in implausible(case):
+        LOG.warning(line)
 
 
 def _outdir(args: argparse.Namespace, case: Case | FieldCase) -> Path:
@@ -64,14 +84,22 @@ def _summary(case: Case) -> str:
 
 
 def _cmd_check(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
+    check_petsc_options(case.solver)
     _say(comm, _summary(case))
+    _warn_implausible(case)
     _say(comm, f"{args.case}: OK")
     return 0
+
+
+def _make_directory(path: Path, comm: MPI.Comm) -> None:
+    """Create ``path`` on rank 0; its failure raises on every rank (collective)."""
+    root_call(comm, lambda: Path(path).mkdir(parents=True, exist_ok=True))
 
 
 def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     out = Path(args.out) if args.out else Path("meshes")
     msh = out / f"{case.name}.msh"
+    _make_directory(out, comm)
     t0 = time.perf_counter()
     rm = create_robot_mesh(case.robot, case.mesh, comm, msh_path=msh)
     ncells = rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global
@@ -89,6 +117,7 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 def _cmd_field(args: argparse.Namespace, case: Case | FieldCase, comm: MPI.Comm) -> int:
     outdir = _outdir(args, case)
+    _make_directory(outdir, comm)
     _write_resolved(case, outdir, comm)
     written = run_field(case, outdir, comm)
     for label, path in written.items():
@@ -96,13 +125,25 @@ def _cmd_field(args: argparse.Namespace, case: Case | FieldCase, comm: MPI.Comm)
     return 0
 
 
-def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
-    outdir = _outdir(args, case)
+def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm, stop: StopSignals) -> int:
+    resume = args.resume is not None
+    if resume and args.out and Path(args.out) != Path(args.resume):
+        raise CaseError("--out", args.out, "give --resume DIR alone: the run continues in DIR")
+    outdir = Path(args.resume) if resume else _outdir(args, case)
+    check_petsc_options(case.solver)
+    root_call(comm, lambda: prepare_run_directory(outdir, resume=resume, overwrite=args.overwrite))
     _say(comm, _summary(case))
+    _warn_implausible(case)
     resolved = _write_resolved(case, outdir, comm)
     _say(comm, f"wrote     resolved case: {resolved}")
     t0 = time.perf_counter()
-    result = simulate(case, outdir, comm, progress=not args.quiet)
+    try:
+        result = simulate(
+            case, outdir, comm, progress=not args.quiet, stop=stop.agreed, resume=resume
+        )
+    except RunInterrupted as err:
+        hint = f"continue with: magfem run {args.case} --resume {outdir}"
+        raise RunInterrupted(err.signum, f"{err.message}; {hint}") from None
     _say(comm, f"finished  in {time.perf_counter() - t0:.1f} s on {comm.size} rank(s)")
     for label, path in result.paths.items():
         _say(comm, f"wrote     {label}: {path}")
@@ -111,9 +152,8 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
 
 def _write_resolved(case: Case | FieldCase, outdir: Path, comm: MPI.Comm) -> Path:
     path = outdir / "case.resolved.toml"
-    if comm.rank == 0:
-        write_resolved_case(case, path)
-    comm.barrier()
+    info = provenance() if comm.rank == 0 else None
+    root_call(comm, lambda: write_resolved_case(case, path, provenance=info))
     return path
 
 
@@ -134,7 +174,7 @@ def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
         paired=args.paired,
         engine=args.engine,
         engine_options=parse_engine_options(args.engine_options),
-        echo=None if args.quiet else print,
+        echo=None if args.quiet else LOG.info,
     )
     failed = [r["point"] for r in result.records if r.get("status") != "done"]
     _say(
@@ -144,7 +184,7 @@ def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
     )
     for label, path in result.paths.items():
         _say(comm, f"wrote     {label}: {path}")
-    return 0 if not failed else EXIT_FAILURE
+    return 0 if not failed else EXIT_FAILED
 
 
 def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
@@ -157,13 +197,13 @@ def _cmd_report(args: argparse.Namespace, comm: MPI.Comm) -> int:
         jobs=args.jobs,
         retry_failed=args.retry_failed,
         docs=Path(args.docs),
-        echo=None if args.quiet else print,
+        echo=None if args.quiet else LOG.info,
     )
     _say(comm, f"wrote     report: {path}")
     return 0
 
 
-_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh, "run": _cmd_run}
+_COMMANDS = {"check": _cmd_check, "mesh": _cmd_mesh}
 _DRIVERS = {"sweep": _cmd_sweep, "report": _cmd_report}
 
 
@@ -173,37 +213,22 @@ def _add_overrides(parser: argparse.ArgumentParser, text: str) -> None:
     )
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="magfem",
-        description="Finite-element simulation of untethered hard-magnetic soft robots.",
+def _common() -> argparse.ArgumentParser:
+    """Options every command takes (after the command's name)."""
+    c = argparse.ArgumentParser(add_help=False)
+    level = c.add_mutually_exclusive_group()
+    level.add_argument(
+        "-q", "--quiet", action="store_true", help="warnings and errors only, no progress bar"
     )
-    p.add_argument("--version", action="version", version=f"magfem {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    helps = {
-        "check": "validate a case file without running it",
-        "mesh": "build the robot mesh and write the .msh file (default under meshes/)",
-        "field": "solve the applied magnetic field and write VTX/CSV/PNG",
-        "run": "run the case end to end (mesh, field, dynamics, outputs)",
-    }
-    for name, text in helps.items():
-        s = sub.add_parser(name, help=text, description=text)
-        s.add_argument("case", help="case file (TOML)")
-        _add_overrides(s, "override a case value, e.g. --set time.end=50ms")
-        if name != "check":
-            s.add_argument("--out", help="output directory (default output/<case name>)")
-        if name == "run":
-            s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-        if name == "mesh":
-            s.add_argument(
-                "--format",
-                choices=("msh", "vtu", "vtk"),
-                default="msh",
-                help="also write the mesh with its groups as VTK (vtu, vtk) for ParaView "
-                "and other tools (default: only the gmsh .msh)",
-            )
+    level.add_argument("-v", "--verbose", action="store_true", help="debug messages too")
+    c.add_argument("--debug", action="store_true", help="print the traceback of an error")
+    return c
+
+
+def _add_sweep_parser(sub: Any, common: list[argparse.ArgumentParser]) -> None:
+    """The ``sweep`` command's arguments."""
     text = "run a case over a grid of parameter values in parallel processes (resumable)"
-    s = sub.add_parser("sweep", help=text, description=text)
+    s = sub.add_parser("sweep", help=text, description=text, parents=common)
     s.add_argument("case", help="base case file (TOML)")
     s.add_argument(
         "--param",
@@ -238,38 +263,102 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="pair the --param lists element by element (equal lengths) instead of crossing them",
     )
-    s.add_argument("-q", "--quiet", action="store_true", help="no per-point lines")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="magfem",
+        description="Finite-element simulation of untethered hard-magnetic soft robots.",
+    )
+    p.add_argument("--version", action="version", version=f"magfem {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    common = [_common()]
+    helps = {
+        "check": "validate a case file without running it",
+        "mesh": "build the robot mesh and write the .msh file (default under meshes/)",
+        "field": "solve the applied magnetic field and write VTX/CSV/PNG",
+        "run": "run the case end to end (mesh, field, dynamics, outputs)",
+    }
+    for name, text in helps.items():
+        s = sub.add_parser(name, help=text, description=text, parents=common)
+        s.add_argument("case", help="case file (TOML)")
+        _add_overrides(s, "override a case value, e.g. --set time.end=50ms")
+        if name != "check":
+            s.add_argument("--out", help="output directory (default output/<case name>)")
+        if name == "run":
+            again = s.add_mutually_exclusive_group()
+            again.add_argument(
+                "--resume",
+                metavar="DIR",
+                help="continue the run whose checkpoint is in DIR (same case, same ranks; "
+                "time.end may be later)",
+            )
+            again.add_argument(
+                "--overwrite",
+                action="store_true",
+                help="delete the outputs of a previous run in the output directory first",
+            )
+        if name == "mesh":
+            s.add_argument(
+                "--format",
+                choices=("msh", "vtu", "vtk"),
+                default="msh",
+                help="also write the mesh with its groups as VTK (vtu, vtk) for ParaView "
+                "and other tools (default: only the gmsh .msh)",
+            )
+    _add_sweep_parser(sub, common)
     text = "run (or reuse) the scene studies and write docs/scenes.md"
-    s = sub.add_parser("report", help=text, description=text)
+    s = sub.add_parser("report", help=text, description=text, parents=common)
     s.add_argument("--run", action="store_true", help="run missing studies (else only read)")
     s.add_argument("--only", action="append", default=[], metavar="SCENE", help="scene id(s)")
     s.add_argument("--jobs", type=int, default=2, help="runs at the same time")
     s.add_argument("--out", default="output/report", help="where the runs go")
     s.add_argument("--docs", default="docs", help="docs directory (scenes.md, figures/)")
     s.add_argument("--retry-failed", action="store_true", help="rerun runs that failed")
-    s.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p
 
 
+def _dispatch(args: argparse.Namespace, comm: MPI.Comm, stop: StopSignals) -> int:
+    if args.command in _DRIVERS:
+        return _DRIVERS[args.command](args, comm)
+    if args.command == "field":  # [robot], [mesh], [material] optional
+        return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
+    case = load_case(args.case, args.overrides)
+    if args.command == "run":
+        return _cmd_run(args, case, comm, stop)
+    return _COMMANDS[args.command](args, case, comm)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``magfem`` console script; returns the exit status."""
+    """Entry point of the ``magfem`` console script; returns the exit status.
+
+    Under MPI every rank returns the same status; a rank that fails alone
+    while the others wait in a collective call ends the job instead
+    (:func:`magfem.errors.end_with`).
+    """
     args = _parser().parse_args(argv)
     comm = MPI.COMM_WORLD
-    try:
-        if args.command in _DRIVERS:
-            return _DRIVERS[args.command](args, comm)
-        if args.command == "field":  # [robot], [mesh], [material] optional
-            return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
-        case = load_case(args.case, args.overrides)
-        return _COMMANDS[args.command](args, case, comm)
-    except CaseError as err:
-        if comm.rank == 0:
-            print(f"magfem: error: {err}", file=sys.stderr, flush=True)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        if comm.rank == 0:
-            print("magfem: interrupted; outputs written so far are kept", file=sys.stderr)
-        return 130
+    level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
+    configure_logging(comm, level)
+    failures = comm.Dup()
+    # a run stops at the end of a step on SIGINT/SIGTERM, check/mesh/field at once; sweep and
+    # report keep Python's KeyboardInterrupt, on which they stop the runs they started
+    with contextlib.ExitStack() as stack:
+        stop = StopSignals(immediate=args.command != "run")
+        if args.command not in _DRIVERS:
+            stack.enter_context(stop)
+        try:
+            status = _dispatch(args, comm, stop)
+        except BaseException as err:  # every failure: one line and its status, on every rank
+            if isinstance(err, SystemExit):
+                raise
+            if stop.received and isinstance(err, PETSc.Error):
+                # a signal raised inside a PETSc callback surfaces as a PETSc error
+                stopped = RunInterrupted(stop.received, "before the time loop; nothing to resume")
+                stopped.__cause__, err = err, stopped
+            status = end_with(err, comm, failures, debug=args.debug)
+    failures.Free()
+    return status
 
 
 if __name__ == "__main__":

@@ -74,6 +74,18 @@ class CaseError(ValueError):
     def with_source(self, source: str) -> CaseError:
         return CaseError(self.key, self.value, self.problem, source)
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # picklable (MPI broadcasts it), the MISSING sentinel included
+        missing = self.value is _MISSING
+        value = None if missing else self.value
+        return (_rebuild_case_error, (self.key, value, missing, self.problem, self.source))
+
+
+def _rebuild_case_error(
+    key: str, value: object, missing: bool, problem: str, source: str | None
+) -> CaseError:
+    return CaseError(key, _MISSING if missing else value, problem, source)
+
 
 def _show(value: object) -> str:
     text = repr(value)

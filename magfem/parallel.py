@@ -1,20 +1,81 @@
-"""MPI conveniences: rank-0 printing, progress bars, shared directories.
+"""MPI conveniences: logging and printing on rank 0, progress bars, work done on rank 0
+with its failure shared, agreement on a failure, shared directories.
 
 Every function here is safe to call on all ranks; the collective ones
-(:func:`shared_directory`) must be called on all ranks of ``comm``.
+(:func:`shared_directory`, :func:`root_call`, :func:`agree`) must be called
+on all ranks of ``comm``.
+
+Messages of the library go through :mod:`logging` (logger ``magfem`` and
+its children). :func:`configure_logging` shows them on rank 0 only:
+information on stdout, warnings and errors on stderr as ``magfem: warning:
+...``, written above a running progress bar. Without it, the library is
+silent (the ``magfem`` logger has a :class:`logging.NullHandler`).
 """
 
 from __future__ import annotations
 
+import logging
+import pickle
 import sys
 import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from mpi4py import MPI
 from tqdm import tqdm
 
-__all__ = ["is_root", "progress", "rank0_print", "shared_directory"]
+__all__ = [
+    "LOGGER",
+    "agree",
+    "configure_logging",
+    "is_root",
+    "progress",
+    "rank0_print",
+    "root_call",
+    "shared_directory",
+]
+
+LOGGER = logging.getLogger("magfem")
+"""The parent logger of every magfem module."""
+LOGGER.addHandler(logging.NullHandler())
+
+
+class _Rank0Handler(logging.Handler):
+    """Writes records through tqdm (above a progress bar) to stdout (< WARNING) or stderr."""
+
+    def __init__(self, out: TextIO | None = None, err: TextIO | None = None):
+        super().__init__()
+        self.out, self.err = out, err
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            message = self.format(record)
+            if record.levelno >= logging.WARNING:
+                error = record.levelno >= logging.ERROR
+                prefix = "magfem: error: " if error else "magfem: warning: "
+                tqdm.write(prefix + message, file=self.err or sys.stderr)
+            else:
+                tqdm.write(message, file=self.out or sys.stdout)
+            (self.err or sys.stderr).flush()
+            (self.out or sys.stdout).flush()
+        except Exception:  # logging must never raise into the run
+            self.handleError(record)
+
+
+def configure_logging(comm: MPI.Comm = MPI.COMM_WORLD, level: int = logging.INFO) -> None:
+    """Show magfem's log records at ``level`` and above on rank 0 of ``comm``, none elsewhere.
+
+    Replaces the handlers an earlier call installed (the command line calls it
+    once per command, tests may call it several times).
+    """
+    for handler in list(LOGGER.handlers):
+        if isinstance(handler, _Rank0Handler):
+            LOGGER.removeHandler(handler)
+    LOGGER.setLevel(level)
+    if comm.rank == 0:
+        LOGGER.addHandler(_Rank0Handler())
 
 
 def is_root(comm: MPI.Comm = MPI.COMM_WORLD) -> bool:
@@ -59,3 +120,55 @@ def shared_directory(comm: MPI.Comm = MPI.COMM_WORLD, prefix: str = "magfem-") -
     """A fresh temporary directory created on rank 0, its path broadcast (collective)."""
     path = tempfile.mkdtemp(prefix=prefix) if comm.rank == 0 else None
     return Path(comm.bcast(path, root=0))
+
+
+def root_call[R](comm: MPI.Comm, fn: Callable[[], R]) -> R | None:
+    """Run ``fn()`` on rank 0 and raise its exception on every rank (collective).
+
+    Work that only rank 0 does (creating the output folder, writing a file)
+    followed by a barrier would leave the other ranks waiting forever when
+    it fails: here every rank learns of the failure and raises it (a copy of
+    the exception; one that cannot be pickled becomes a ``RuntimeError`` with
+    its message). Returns ``fn()``'s result on rank 0, None elsewhere.
+    """
+    result: R | None = None
+    failure: BaseException | None = None
+    if comm.rank == 0:
+        try:
+            result = fn()
+        except Exception as err:
+            failure = err
+    failure = comm.bcast(_portable(failure), root=0)
+    if failure is not None:
+        raise failure
+    return result
+
+
+def _portable(err: BaseException | None) -> BaseException | None:
+    """``err``, or a RuntimeError with its message when it cannot travel through pickle."""
+    if err is None:
+        return None
+    try:
+        pickle.loads(pickle.dumps(err))
+    except Exception:
+        return RuntimeError(" ".join(str(err).split()))
+    return err
+
+
+def agree(comm: MPI.Comm, timeout: float) -> bool:
+    """Whether every rank of ``comm`` calls this within ``timeout`` seconds (collective).
+
+    A non-blocking barrier polled until ``timeout``: the ranks that failed
+    together learn it and can end together; a rank that fails alone learns
+    that the others are busy elsewhere (in a collective call that will never
+    complete) and must end the job itself. Use a communicator reserved for
+    this (``comm.Dup()`` made at start), so that the barrier cannot match
+    another collective call.
+    """
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + timeout
+    while not request.Test():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True

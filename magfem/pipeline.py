@@ -11,7 +11,9 @@ composed declaratively into a :class:`~magfem.mechanics.simulation.Simulation`.
 
 from __future__ import annotations
 
+import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -19,11 +21,13 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from magfem.case import Case
+from magfem.config import to_table
 from magfem.field.model import FieldModel, create_field_model
 from magfem.field.spec import FieldSpec
 from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
 from magfem.geometry.robots import outline_of
 from magfem.mechanics.animation import MotionSnapshots
+from magfem.mechanics.checkpoint import Checkpointer, RunControl, check_resumable, read_checkpoint
 from magfem.mechanics.contacts import Contact, GroundContact, SelfContact
 from magfem.mechanics.loads import GravityLoad, Load, MagneticLoad
 from magfem.mechanics.models import MODELS, BodySetup, Model
@@ -39,9 +43,15 @@ from magfem.mechanics.observers import (
 )
 from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
 from magfem.mechanics.problem import build_problem
+from magfem.mechanics.series import VtuSeries
 from magfem.mechanics.simulation import Simulation, SimulationResult
+from magfem.parallel import root_call
+from magfem.rundir import CHECKPOINT
+from magfem.sanity import SUPPORT_FRACTION, SwitchWatch
 
 __all__ = ["build_simulation", "create_writers", "drive_frequency", "simulate"]
+
+LOG = logging.getLogger("magfem.pipeline")
 
 
 def drive_frequency(spec: FieldSpec) -> float | None:
@@ -85,6 +95,7 @@ def build_simulation(
         *(spec.build(model) for spec in case.loads),
     ]
     problem = build_problem(model, loads, _contacts(case, model))
+    _check_supports(model)
     t1 = time.perf_counter()
     observers = _observers(case, model, problem.energy_forms, field_model)
     return Simulation(
@@ -157,6 +168,17 @@ def _support_points(model: Model) -> npt.NDArray[np.float64]:
     return np.vstack(model.robot.mesh.comm.allgather(mine))
 
 
+def _check_supports(model: Model) -> None:
+    """Warn when the supports hold most of the body's nodes (collective)."""
+    held = len(_support_points(model))
+    nodes = model.u.function_space.dofmap.index_map.size_global
+    if nodes and held > SUPPORT_FRACTION * nodes:
+        LOG.warning(
+            f"the supports ([environment] clamped, fixed_point, fixed_radius) hold {held} of "
+            f"the {nodes} nodes: most of the body cannot move"
+        )
+
+
 def _field_point(model: Model) -> npt.NDArray[np.float64]:
     """Where the history samples the applied field: the first arm's root (3D, m)."""
     if not model.arms:
@@ -174,10 +196,13 @@ def create_writers(
     paths: dict[str, Path] = {}
     if out.csv:
         paths["csv"] = outdir / "history.csv"
-        writers.append(CsvWriter(paths["csv"], sim.columns(), comm))
+        writers.append(CsvWriter(paths["csv"], sim.columns(), comm, sim.column_units()))
     if out.vtx_every > 0:
         paths["vtx"] = outdir / "displacement.bp"
         writers.append(VtxWriter(paths["vtx"], [sim.u], comm, out.vtx_every))
+    if out.vtu_every > 0:
+        paths["pvd"] = outdir / "displacement.pvd"
+        writers.append(VtuSeries(paths["pvd"], sim.u, comm, out.vtu_every))
     if out.animation:
         paths["gif"] = outdir / "motion.gif"
         snapshots = MotionSnapshots(
@@ -194,28 +219,63 @@ def create_writers(
         writers.append(
             AnglePlotWriter(paths["png"], [a.name for a in sim.model.arms], comm, case.name)
         )
+    if sim.integrator.dynamic and sim.model.arms:
+        arms = [a.name for a in sim.model.arms]
+        writers.append(SwitchWatch(arms, sim.controller.breakpoints, LOG.warning))
     return writers, paths
 
 
 def simulate(
-    case: Case, outdir: Path, comm: MPI.Comm = MPI.COMM_WORLD, *, progress: bool = True
+    case: Case,
+    outdir: Path,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    progress: bool = True,
+    stop: Callable[[MPI.Comm], int] | None = None,
+    resume: bool = False,
 ) -> SimulationResult:
     """Run ``case`` and write its outputs to ``outdir`` (collective).
+
+    Args:
+        stop: ``comm -> signal`` agreed by all ranks after each step (0: go on),
+            e.g. :meth:`magfem.signals.StopSignals.agreed`; None: never stop.
+        resume: continue the run from the checkpoint in ``outdir/checkpoint``
+            (same case but for ``time.end``, same number of ranks).
 
     Returns:
         the :class:`SimulationResult` (history arrays on every rank, written paths).
 
     Raises:
-        magfem.config.CaseError: the case cannot be simulated.
+        magfem.config.CaseError: the case cannot be simulated, or cannot
+            continue the checkpoint.
         magfem.mechanics.stepping.SimulationError: Newton failed at the smallest
             step (the outputs so far are kept).
+        magfem.errors.RunInterrupted: ``stop`` gave a signal; the checkpoint and
+            the outputs so far are written.
     """
-    sim = build_simulation(case, comm)
     outdir = Path(outdir)
-    if comm.rank == 0:
-        outdir.mkdir(parents=True, exist_ok=True)
-    comm.barrier()
+    table = to_table(case)
+    state = None
+    if resume:
+        meta, state = read_checkpoint(outdir / CHECKPOINT, comm)
+        check_resumable(meta, table, float(meta["time"]))
+        LOG.info(f"resuming  step {meta['step']} at t = {meta['time']:.6g} s ({meta['reason']})")
+    sim = build_simulation(case, comm)
+    root_call(comm, lambda: outdir.mkdir(parents=True, exist_ok=True))
     writers, paths = create_writers(case, sim, outdir)
-    result = sim.run(writers, progress=progress)
+    out = case.output
+    checkpoints = Checkpointer(
+        outdir / CHECKPOINT,
+        comm,
+        every=out.checkpoint_every,
+        interval=out.checkpoint_interval,
+        case=table,
+    )
+    control = RunControl(stop=stop, checkpoints=checkpoints, resume=state)
+    try:
+        result = sim.run(writers, progress=progress, control=control)
+    finally:
+        if control.written:
+            paths["checkpoint"] = control.written[-1]
     result.paths = paths
     return result

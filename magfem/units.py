@@ -3,8 +3,14 @@
 A case file may say ``thickness = "80 um"``, ``B = "2 mT"`` or
 ``frequency = "60 Hz"``; inside magfem every number is SI (m, kg, s, A and
 the derived T, Pa, Hz, A/m, ...). This module parses such strings and checks
-that the unit has the dimension the key expects. It never guesses: a bare
-number is taken as SI, a unit of the wrong dimension is an error.
+that the unit has the dimension the key expects. It never guesses: a unit of
+the wrong dimension is an error, and a bare number (``2``, or the string
+``"2"``) for a quantity that has a dimension is either SI or an error, as
+the caller says (:func:`bare_numbers`): case files must give units unless
+they declare ``units = "SI"``; code that builds cases from SI numbers may
+leave them bare. Zero needs no unit. Numbers and units whose value
+overflows (``"1 km^400"``, ``"1e999 mT"``) or underflows to zero
+(``"1e-999 m"``) are errors, as are non-finite numbers.
 
 Grammar: ``<number> [<unit expression>]`` where a unit expression is a
 product/quotient of units with optional SI prefix and integer power, e.g.
@@ -14,14 +20,18 @@ mean micrometre.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import re
+from collections.abc import Iterator
 
 __all__ = [
     "PREFIXES",
     "UNIT_SYMBOLS",
     "UNPREFIXED",
     "UnitError",
+    "bare_numbers",
     "dimension_of",
     "parse_quantity",
     "parse_unit",
@@ -83,6 +93,37 @@ class UnitError(ValueError):
     """A quantity string could not be parsed or has the wrong dimension."""
 
 
+_BARE_IS_SI = contextvars.ContextVar("magfem_bare_numbers_are_si", default=True)
+
+
+@contextlib.contextmanager
+def bare_numbers(si: bool) -> Iterator[None]:
+    """Within the block, bare numbers for dimensional quantities are SI (``si``) or errors."""
+    token = _BARE_IS_SI.set(si)
+    try:
+        yield
+    finally:
+        _BARE_IS_SI.reset(token)
+
+
+def _check_bare(number: float, unit: str) -> None:
+    """A bare ``number`` for a quantity in ``unit``: accepted or an error (:func:`bare_numbers`)."""
+    if _BARE_IS_SI.get() or number == 0.0 or not unit or parse_unit(unit)[1] == (0, 0, 0, 0):
+        return
+    raise UnitError(
+        f'a quantity in {unit} needs a unit: write "{number:g} {unit}" if SI is meant '
+        '(bare numbers are SI only in a case file that says units = "SI")'
+    )
+
+
+def _finite(value: float, number: float, text: object) -> float:
+    if not math.isfinite(value):
+        raise UnitError(f"{text!r} overflows (not a finite number)")
+    if value == 0.0 and number != 0.0:
+        raise UnitError(f"{text!r} underflows to 0")
+    return value
+
+
 def _lookup(symbol: str) -> tuple[float, Dim]:
     if symbol in _BASE:
         return _BASE[symbol]
@@ -118,7 +159,12 @@ def parse_unit(expr: str) -> tuple[float, Dim]:
             raise UnitError(f"cannot read unit '{tok}'")
         s, d = _lookup(m.group(1))
         power = int(m.group(2) or 1) * sign
-        scale *= s**power
+        try:
+            scale *= s**power
+        except OverflowError:
+            raise UnitError(f"unit '{expr}' overflows") from None
+        if not math.isfinite(scale) or scale == 0.0:
+            raise UnitError(f"unit '{expr}' overflows or underflows")
         for i in range(4):
             dim[i] += d[i] * power
     return scale, (dim[0], dim[1], dim[2], dim[3])
@@ -133,33 +179,43 @@ def parse_quantity(value: object, unit: str) -> float:
     """Convert ``value`` (number or "<number> <unit>" string) to SI.
 
     Args:
-        value: a float/int (already SI) or a string like ``"80 um"``.
+        value: a float/int (SI) or a string like ``"80 um"``.
         unit: the SI unit the caller expects, e.g. ``"m"``, ``"T"``, ``"A/m"``;
             it fixes the dimension that ``value``'s unit must have.
 
     Returns:
-        The value in SI units.
+        The value in SI units (finite).
 
     Raises:
-        UnitError: unreadable number or unit, or a unit of another dimension.
+        UnitError: unreadable number or unit, a unit of another dimension, a
+            value that is not finite or overflows or underflows, or a bare
+            number where units are required (:func:`bare_numbers`).
     """
     if isinstance(value, bool):
         raise UnitError(f"expected a number or a quantity in {unit}, got a boolean")
     if isinstance(value, int | float):
-        if not math.isfinite(value):
+        try:
+            number = float(value)
+        except OverflowError:
+            raise UnitError(f"{value!r} overflows (not a finite number)") from None
+        if not math.isfinite(number):
             raise UnitError(f"expected a finite number, got {value}")
-        return float(value)
+        _check_bare(number, unit)
+        return number
     if not isinstance(value, str):
         raise UnitError(f"expected a number or a quantity string in {unit}")
     m = _NUMBER.match(value)
     if m is None:
         raise UnitError(f"cannot read a number in '{value}'")
     number = float(m.group(1))
+    if number == 0.0 and re.search(r"[1-9]", m.group(1).split("e")[0].split("E")[0]):
+        raise UnitError(f"{value!r} underflows to 0")
     given = m.group(2)
-    if not given:  # a number written as a string is SI, like a bare number
+    if not given:  # a number written as a string is a bare number
+        _check_bare(_finite(number, number, value), unit)
         return number
     scale, dim = parse_unit(given)
     want_scale, want_dim = parse_unit(unit)
     if dim != want_dim:
         raise UnitError(f"unit '{given or '(none)'}' is not a unit of {unit}")
-    return number * scale / want_scale
+    return _finite(number * scale / want_scale, number, value)

@@ -9,11 +9,14 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
+import dolfinx
 import pytest
 import tomli_w
 
+import magfem
 from magfem.case import (
     Case,
     apply_overrides,
@@ -24,6 +27,7 @@ from magfem.case import (
 )
 from magfem.cli import main
 from magfem.config import CaseError
+from magfem.provenance import provenance
 
 BASE: dict = {
     "name": "probe",
@@ -158,7 +162,22 @@ BAD_INPUTS = [
     ("layers-not-int", _mutate(_set("mesh.layers", 1.5)), "mesh.layers", "integer"),
     ("layers-zero", _mutate(_set("mesh.layers", 0)), "mesh.layers", ">= 1"),
     ("bad-mesh-model", _mutate(_set("mesh.model", "shell")), "mesh.model", "solid"),
-    ("negative-density", _mutate(_set("material.density", -1)), "material.density", "> 0"),
+    ("negative-density", _mutate(_set("material.density", "-1 kg/m^3")), "material.density", "> 0"),
+    (
+        "bare-flux-density",
+        _mutate(_set("field.sources.0.flux_density", 2)),
+        "field.sources[0].flux_density",
+        "needs a unit",
+    ),
+    ("bare-string-number", _mutate(_set("robot.thickness", "8e-5")), "robot.thickness", "unit"),
+    ("unit-overflow", _mutate(_set("robot.thickness", "1 km^400")), "robot.thickness", "overflow"),
+    ("unit-underflow", _mutate(_set("robot.length", "1 mm^-999")), "robot.length", "overflow"),
+    ("value-overflow", _mutate(_set("field.sources.0.flux_density", "1e999 mT")), "flux", "finite"),
+    ("value-underflow", _mutate(_set("robot.thickness", "1e-999 m")), "thickness", "underflow"),
+    ("toml-infinity", _mutate(_set("time.end", float("inf"))), "time.end", "finite"),
+    ("name-escapes", _mutate(_set("name", "../x")), "name", "plain file name"),
+    ("name-absolute", _mutate(_set("name", "/tmp/x")), "name", "plain file name"),
+    ("units-not-si", _mutate(_set("units", "mm")), "units", '"SI"'),
     ("rho-inf-above-one", _mutate(_set("time.rho_inf", 1.5)), "time.rho_inf", "<= 1"),
     ("end-time-zero", _mutate(_set("time.end", "0 s")), "time.end", "> 0"),
     (
@@ -241,12 +260,39 @@ def test_overrides_apply_before_validation():
 
 
 def test_resolved_case_round_trips(shared_tmp, comm):
+    """The resolved case says units = "SI" (its bare numbers are SI) and carries the versions
+    in [provenance], which reading it back ignores."""
     case = parse_case(BASE)
     path = shared_tmp / "resolved.toml"
     if comm.rank == 0:
-        write_resolved_case(case, path)
+        write_resolved_case(case, path, provenance=provenance())
     comm.barrier()
     assert load_case(path) == case
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    assert data["units"] == "SI"
+    assert data["robot"]["thickness"] == case.robot.thickness  # a bare SI number
+    info = data["provenance"]
+    assert info["magfem"] == magfem.__version__
+    assert info["dolfinx"] == dolfinx.__version__ and info["petsc"].count(".") == 2
+    assert "git_commit" in info
+
+
+def test_bare_numbers_need_units_in_files_but_not_in_code(shared_tmp, comm):
+    """A case file with a bare number for a dimensional key is refused unless it says
+    units = "SI"; a table built in code is SI."""
+    data = copy.deepcopy(BASE)
+    data["robot"]["thickness"] = 8e-5
+    assert parse_case(data).robot.thickness == 8e-5
+    path = _write(shared_tmp, data, "bare.toml") if comm.rank == 0 else shared_tmp / "bare.toml"
+    comm.barrier()
+    with pytest.raises(CaseError, match=r"robot\.thickness = 8e-05: a quantity in m needs a unit"):
+        load_case(path)
+    assert load_case(path, ["units=SI"]).robot.thickness == 8e-5
+    clean = _write(shared_tmp, BASE, "clean.toml") if comm.rank == 0 else shared_tmp / "clean.toml"
+    comm.barrier()
+    with pytest.raises(CaseError, match=r"time\.end = 0\.05: .*needs a unit"):
+        load_case(clean, ["time.end=0.05"])  # --set takes units too
+    assert load_case(clean, ["time.end=50ms"]).time.end == pytest.approx(0.05)
 
 
 def test_every_shipped_case_is_valid_and_round_trips(repo, shared_tmp, comm):

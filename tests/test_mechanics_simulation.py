@@ -390,7 +390,7 @@ def test_stalled_run_stops_with_its_reason_and_keeps_its_history(comm, shared_tm
         simulate(case, out, comm, progress=False)
     assert "t = 0 s: Newton failed" in str(err.value)
     rows = (out / "history.csv").read_text().splitlines()
-    assert rows[0].startswith("time,") and len(rows) >= 2  # header and the t = 0 state
+    assert rows[0].startswith("time [s],") and len(rows) >= 2  # header and the t = 0 state
 
 
 def test_run_summary_equals_the_summary_of_its_csv(comm, shared_tmp):

@@ -31,7 +31,6 @@ Serial: every scene (~2 min in all, JIT cache warm; +~30 s cold).
 
 from __future__ import annotations
 
-import csv
 import math
 
 import numpy as np
@@ -39,6 +38,7 @@ import pytest
 
 from magfem.case import load_case
 from magfem.cli import main
+from magfem.mechanics.columns import read_history
 from magfem.pipeline import build_simulation
 
 QUIET = [
@@ -86,9 +86,7 @@ def _overrides(args: list[str]) -> list[str]:
 
 
 def _history(path) -> dict[str, np.ndarray]:
-    with path.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return read_history(path)[0]
 
 
 def _magnetization(case) -> np.ndarray:

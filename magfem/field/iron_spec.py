@@ -86,7 +86,7 @@ class IronSpec(ABC):
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> IronSpec:
         classes = {c.KIND: c for c in _IRON_CLASSES}
         kind = table.get("kind", MISSING)
-        if kind not in classes:
+        if not isinstance(kind, str) or kind not in classes:
             raise CaseError(
                 f"{where}.kind", kind, "unknown iron kind; must be one of " + ", ".join(IRON_KINDS)
             )

@@ -209,7 +209,7 @@ class SourceSpec:
             )
         kind = table["kind"]
         classes = {c.KIND: c for c in _SOURCE_CLASSES}
-        if kind not in classes:
+        if not isinstance(kind, str) or kind not in classes:
             raise CaseError(
                 f"{where}.kind",
                 kind,

@@ -16,7 +16,7 @@ hand on the ``snapshots`` folder of a killed run.
 from __future__ import annotations
 
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +33,7 @@ class MotionSnapshots:
     """Boundary-surface snapshots of the deformed body, one file each, on rank 0 (collective).
 
     Args:
-        directory: folder of the snapshot files (created; emptied of old frames).
+        directory: folder of the snapshot files (created; :meth:`clear` empties it).
         u: displacement (m), vector Lagrange on the robot mesh.
         comm: the mesh's communicator.
         frames: number of equally spaced instants over [start, end] (at least 2).
@@ -62,6 +62,7 @@ class MotionSnapshots:
         self.interval = (end - start) / max(frames - 1, 1)
         self.next_time = start
         self.count = 0
+        self.last_time: float | None = None
         V = u.function_space
         msh = V.mesh
         tdim = msh.topology.dim
@@ -93,13 +94,31 @@ class MotionSnapshots:
             )
             self.ids = np.asarray(surface.point_data["vtkOriginalPointIds"], dtype=np.int64)
             self.directory.mkdir(parents=True, exist_ok=True)
-            for old in self.directory.glob("frame_*.npz"):
-                old.unlink()
             np.savez(
                 self.directory / "surface.npz",
                 points=np.asarray(surface.points, dtype=float),
                 faces=np.asarray(surface.faces),
             )
+
+    def clear(self) -> None:
+        """Delete the frames of an earlier run (rank 0 does; call on every rank)."""
+        if self.comm.rank == 0:
+            for old in self.directory.glob("frame_*.npz"):
+                old.unlink()
+
+    def state(self) -> dict[str, Any]:
+        """Frames written and the next instant due (for checkpoints)."""
+        return {"count": self.count, "next_time": self.next_time, "last_time": self.last_time}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Go on after the frames of :meth:`state`; later frames on disk are deleted."""
+        self.count = int(state["count"])
+        self.next_time = float(state["next_time"])
+        self.last_time = state["last_time"]
+        if self.comm.rank == 0:
+            for old in self.directory.glob("frame_*.npz"):
+                if int(old.stem.split("_")[1]) >= self.count:
+                    old.unlink()
 
     def due(self, t: float) -> bool:
         """Whether a snapshot is due at time t (same answer on every rank)."""
@@ -110,6 +129,7 @@ class MotionSnapshots:
         values = np.asarray(self.u.x.array[: self.n_local * self.bs]).reshape(-1, self.bs)
         gathered = self.comm.gather(values, root=0)
         self.count += 1
+        self.last_time = float(t)
         while self.next_time <= t + 1e-9 * self.interval:
             self.next_time += self.interval
         if self.comm.rank != 0 or self.ids is None:

@@ -1,15 +1,23 @@
 """Writers of a run: CSV history, VTX displacement, PNG angle plot, GIF of the motion.
 
 Everything is written *as the run goes* so that a killed run keeps all it
-had computed: the CSV is flushed after every accepted step (rank 0 writes),
-the VTX file (ADIOS2 BP4, which ParaView reads from 5.9 on; BP5 needs
-5.12.1) gets the displacement every N steps (collective), the motion
-snapshots are written as they fall due (:mod:`.animation`), and the PNG of
-the bending angle against time with the field waveform is drawn at the end.
+had computed: the CSV is flushed after every accepted step (rank 0 writes;
+its header names every column with its unit, :mod:`.columns`), the VTX file
+(ADIOS2 BP4, which ParaView reads from 5.9 on; BP5 needs 5.12.1) gets the
+displacement every N steps (collective), as does the VTU/PVD series that
+pyvista reads (:mod:`.series`), the motion snapshots are written as they
+fall due (:mod:`.animation`), and the PNG of the bending angle against time
+with the field waveform is drawn at the end.
 
 The time loop holds a list of :class:`Writer`; it calls :meth:`Writer.write`
-after every accepted step (and at t₀), :meth:`Writer.close` when the loop
-ends for any reason, and :meth:`Writer.finish` with the history.
+after every accepted step (and at t₀), and when the loop ends (complete,
+stopped by a signal, or failed) :meth:`Writer.last` with the last step (the
+field series write the final state there), :meth:`Writer.close`, and
+:meth:`Writer.finish` with the history. Writers that a resumed run continues
+keep their progress through ``state()``/``restore()``
+(:mod:`magfem.mechanics.checkpoint`): the CSV is cut back to the
+checkpoint's rows and appended to, a resumed VTX series goes on in a new
+file ``displacement.<k>.bp`` (a BP4 file cannot be reopened for appending).
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ from dolfinx import io
 from mpi4py import MPI
 
 from magfem.mechanics.animation import MotionSnapshots, remove_snapshots, write_animation
+from magfem.mechanics.columns import header
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -50,6 +59,9 @@ class Writer:
     def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
         """After accepted step ``step`` (0: the initial state) ending at t (s)."""
 
+    def last(self, step: int, t: float, row: Mapping[str, float]) -> None:
+        """The loop ended after step ``step`` at t (collective): write the state if skipped."""
+
     def close(self) -> None:
         """The loop has ended (normally or not): release files (collective)."""
 
@@ -60,26 +72,57 @@ class Writer:
 class CsvHistory:
     """A CSV file with fixed columns, one row per accepted step, flushed each row.
 
-    Only rank 0 touches the file; every rank may call the methods.
+    The header names each column with its unit (:func:`magfem.mechanics.columns.header`).
+    The file is opened at the first row; :meth:`resume` makes it keep its first
+    rows and append. Only rank 0 touches the file; every rank may call the methods.
+
+    Args:
+        units: units of columns that :data:`magfem.mechanics.columns.UNITS` does not know.
     """
 
-    def __init__(self, path: Path, columns: Sequence[str], comm: MPI.Comm):
+    def __init__(
+        self,
+        path: Path,
+        columns: Sequence[str],
+        comm: MPI.Comm,
+        units: Mapping[str, str] | None = None,
+    ):
         self.path = Path(path)
         self.columns = list(columns)
+        self.units = dict(units or {})
         self.comm = comm
+        self.rows = 0
+        self._keep: int | None = None  # rows to keep of an existing file (resume)
         self._file: TextIO | None = None
         self._writer: Any = None
-        if comm.rank == 0:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+
+    def _open(self) -> None:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self._keep is None:
             self._file = self.path.open("w", newline="", encoding="utf-8")
             self._writer = csv.writer(self._file)
-            self._writer.writerow(self.columns)
-            self._file.flush()
+            self._writer.writerow(header(self.columns, self.units))
+        else:
+            with self.path.open(newline="", encoding="utf-8") as fh:
+                kept = fh.readlines()[: 1 + self._keep]
+            self._file = self.path.open("w", newline="", encoding="utf-8")
+            self._file.writelines(kept)
+            self._writer = csv.writer(self._file)
+        self._file.flush()
+
+    def resume(self, rows: int) -> None:
+        """Keep the header and the first ``rows`` rows of the file; append after them."""
+        self._keep = int(rows)
+        self.rows = int(rows)
 
     def write(self, row: Mapping[str, float]) -> None:
         """Append one row (missing columns are empty) and flush."""
-        if self._writer is None or self._file is None:
+        self.rows += 1
+        if self.comm.rank != 0:
             return
+        if self._file is None:
+            self._open()
+        assert self._file is not None
         self._writer.writerow([_fmt(row.get(c)) for c in self.columns])
         self._file.flush()
 
@@ -108,6 +151,12 @@ class VtxOutput:
 
     def close(self) -> None:
         self.writer.close()
+
+
+def segment_path(path: Path, segment: int) -> Path:
+    """``displacement.bp`` for segment 0, ``displacement.<k>.bp`` for the k-th resumed one."""
+    path = Path(path)
+    return path if segment == 0 else path.with_name(f"{path.stem}.{segment}{path.suffix}")
 
 
 def plot_angles(
@@ -159,9 +208,15 @@ def plot_angles(
 class CsvWriter(Writer):
     """The history CSV (:class:`CsvHistory`), one row per accepted step."""
 
-    def __init__(self, path: Path, columns: Sequence[str], comm: MPI.Comm):
+    def __init__(
+        self,
+        path: Path,
+        columns: Sequence[str],
+        comm: MPI.Comm,
+        units: Mapping[str, str] | None = None,
+    ):
         self.path = Path(path)
-        self.csv = CsvHistory(path, columns, comm)
+        self.csv = CsvHistory(path, columns, comm, units)
 
     def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
         self.csv.write(row)
@@ -169,28 +224,65 @@ class CsvWriter(Writer):
     def close(self) -> None:
         self.csv.close()
 
+    def state(self) -> dict[str, Any]:
+        """Rows written so far."""
+        return {"rows": self.csv.rows}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Cut the file back to the rows of :meth:`state` and append after them."""
+        self.csv.resume(int(state["rows"]))
+
 
 class VtxWriter(Writer):
-    """The displacement every ``every`` steps in a VTX (BP4) file (collective)."""
+    """The displacement every ``every`` steps and at the end in a VTX (BP4) file (collective).
+
+    The file is opened at the first write; a resumed run writes the next
+    segment, ``<stem>.<k>.bp`` (:func:`segment_path`).
+    """
 
     def __init__(self, path: Path, functions: Sequence[Any], comm: MPI.Comm, every: int):
         self.path = Path(path)
+        self.functions = list(functions)
+        self.comm = comm
         self.every = every
-        self.vtx = VtxOutput(path, functions, comm)
+        self.segment = 0
+        self.vtx: VtxOutput | None = None
+        self.written = -1  # the last step written
 
     def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
         if step % self.every == 0:
-            self.vtx.write(t)
+            self._write(step, t)
+
+    def _write(self, step: int, t: float) -> None:
+        if self.vtx is None:
+            self.vtx = VtxOutput(segment_path(self.path, self.segment), self.functions, self.comm)
+        self.vtx.write(t)
+        self.written = step
+
+    def last(self, step: int, t: float, row: Mapping[str, float]) -> None:
+        if step != self.written:
+            self._write(step, t)
 
     def close(self) -> None:
-        self.vtx.close()
+        if self.vtx is not None:
+            self.vtx.close()
+            self.vtx = None
+
+    def state(self) -> dict[str, Any]:
+        """The segment being written."""
+        return {"segment": self.segment}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Go on in the next segment (a BP4 file is not reopened)."""
+        self.segment = int(state["segment"]) + 1
 
 
 class MotionWriter(Writer):
     """Snapshots of the motion as they fall due, and the GIF at the end (rank 0).
 
-    The GIF is made also after a failed run (the motion up to the failure); its
-    snapshot folder is removed once the GIF exists.
+    The GIF is made also after a stopped or failed run (the motion up to
+    then, the last state included); the snapshot folder is removed once the
+    GIF of a complete run exists, and kept otherwise (a resumed run adds to it).
     """
 
     def __init__(self, path: Path, snapshots: MotionSnapshots, comm: MPI.Comm, title: str):
@@ -200,18 +292,32 @@ class MotionWriter(Writer):
         self.title = title
 
     def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+        if step == 0:
+            self.snapshots.clear()
         if step == 0 or self.snapshots.due(t):
+            self.snapshots.write(t, (row["Bx"], row["By"], row["Bz"]))
+
+    def last(self, step: int, t: float, row: Mapping[str, float]) -> None:
+        if self.snapshots.last_time != t:
             self.snapshots.write(t, (row["Bx"], row["By"], row["Bz"]))
 
     def finish(self, history: History, *, complete: bool) -> None:
         if self.comm.rank == 0:
             directory = self.snapshots.directory
-            if write_animation(directory, self.path, title=self.title):
+            if write_animation(directory, self.path, title=self.title) and complete:
                 remove_snapshots(directory)
+
+    def state(self) -> dict[str, Any]:
+        """Snapshots written, and when the next is due."""
+        return self.snapshots.state()
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Drop the snapshots written after :meth:`state` and go on from there."""
+        self.snapshots.load_state(state)
 
 
 class AnglePlotWriter(Writer):
-    """The PNG of the arms' angles and the applied field against time, after a complete run."""
+    """The PNG of the arms' angles and the applied field against time, at the end of a run."""
 
     def __init__(self, path: Path, arms: Sequence[str], comm: MPI.Comm, title: str):
         self.path = Path(path)
@@ -220,12 +326,12 @@ class AnglePlotWriter(Writer):
         self.title = title
 
     def finish(self, history: History, *, complete: bool) -> None:
-        if complete and self.comm.rank == 0:
+        if self.comm.rank == 0 and len(history["time"]) > 1:
             plot_angles(
                 self.path,
                 history["time"],
                 {n: history[f"angle_{n}"] for n in self.arms},
                 history["time"],
                 np.column_stack([history["Bx"], history["By"], history["Bz"]]),
-                title=self.title,
+                title=self.title if complete else f"{self.title} (stopped)",
             )

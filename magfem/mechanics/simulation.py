@@ -10,6 +10,13 @@ writers and never names one.
 The initial acceleration is consistent: M a₀ = −R(u₀, v₀, 0; t₀) (a linear
 solve), so gravity and a field switched on at t₀ act from the first step.
 
+After every step a :class:`~magfem.mechanics.checkpoint.RunControl` may
+write a checkpoint and stop the run on a signal (the writers write the last
+state first); a run restored from a checkpoint gives the rows the run
+would have given without the stop. A failed run (:class:`SimulationError`,
+on every rank alike) writes its last state too; any other exception may be
+one rank's only and ends the loop without collective calls.
+
 Quasi-static runs start from the static equilibrium under their constant
 loads (gravity) at t₀, reached by load continuation
 (:meth:`Simulation.settle`): a thin strip's sag under its own weight is a
@@ -22,6 +29,7 @@ and double after an easy one.
 from __future__ import annotations
 
 import functools
+import logging
 import time as _time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -34,6 +42,14 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from magfem.errors import RunInterrupted
+from magfem.mechanics.checkpoint import (
+    RunControl,
+    load_part_state,
+    part_state,
+    restore_run,
+    run_state,
+)
 from magfem.mechanics.observers import Observer, history_summary
 from magfem.mechanics.output import Writer
 from magfem.mechanics.problem import Problem
@@ -75,8 +91,11 @@ def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArra
     return np.unique(np.concatenate(found)) if found else np.zeros(0)
 
 
+LOG = logging.getLogger("magfem.run")
+
+
 class EventLog:
-    """Lines about a run's events, kept, and printed on rank 0 (above the progress bar)."""
+    """Lines about a run's events, kept, and logged (shown on rank 0, above the progress bar)."""
 
     def __init__(self, comm: MPI.Comm):
         self.comm = comm
@@ -84,13 +103,9 @@ class EventLog:
         self.bar: Any = None
 
     def say(self, msg: str) -> None:
-        """Record ``msg`` and show it on rank 0."""
+        """Record ``msg`` and log it."""
         self.lines.append(msg)
-        if self.comm.rank == 0:
-            if self.bar is not None:
-                self.bar.write(msg)
-            else:
-                print(msg, flush=True)
+        LOG.info(msg)
 
 
 class Simulation:
@@ -144,6 +159,7 @@ class Simulation:
             contact.attach(self.solver)
         self.observers: list[Any] = [*problem.contacts, *observers]
         self.observer_compile_time = compile_time
+        self.rows: list[dict[str, float]] = []  # the history so far, one row per accepted step
         self.events = EventLog(self.comm)
         # no reference back to this object from its parts: a cycle through PETSc objects
         # would leave their (collective) destruction to the garbage collector's timing
@@ -171,6 +187,15 @@ class Simulation:
         for observer in self.observers:
             cols += observer.columns()
         return cols
+
+    def column_units(self) -> dict[str, str]:
+        """Units of the columns whose parts declare them (``units()``); see :mod:`.columns`."""
+        out: dict[str, str] = {}
+        for observer in self.observers:
+            declared = getattr(observer, "units", None)
+            if callable(declared):
+                out |= declared()
+        return out
 
     def observe(self, t: float) -> dict[str, float]:
         """Observables at the accepted state u_n (collective). Angles in rad, energies in J."""
@@ -334,58 +359,125 @@ class Simulation:
         weight = model.mass_density * ufl.dot(ufl.as_vector(down.tolist()), w) * model.dx
         return load_norm(weight, model.displacement_bcs)
 
-    # --- the run ----------------------------------------------------------------------------
+    def run(
+        self,
+        writers: Sequence[Writer] = (),
+        *,
+        progress: bool = True,
+        control: RunControl | None = None,
+    ) -> SimulationResult:
+        """Integrate from ``time.start`` (or a checkpoint) to ``time.end``, handing rows to writers.
 
-    def run(self, writers: Sequence[Writer] = (), *, progress: bool = True) -> SimulationResult:
-        """Integrate from ``time.start`` to ``time.end``, handing each row to the writers.
+        Args:
+            control: checkpoints, stop signals, the state to resume from (None: none).
 
         Raises:
             SimulationError: Newton failed ``max_cuts`` times in a row or below
                 ``min_step`` (the writers keep the steps until then).
+            RunInterrupted: ``control`` agreed on a stop signal; the checkpoint
+                and the outputs of the steps until then are written.
         """
         spec = self.time_spec
+        control = control or RunControl()
         t_wall = _time.perf_counter()
-        self.initialise()
-        t = spec.start
-        rows = [self.observe(t) | {"dt": 0.0, "newton_iterations": 0, "cuts": 0}]
-        for w in writers:
-            w.write(0, t, rows[0])
+        t = self._start(writers, control)
         if progress:
             self.events.bar = progress_bar(
                 spec.end - spec.start, desc=self.name, unit="s", comm=self.comm
             )
-        complete = False
+            self.events.bar.update(t - spec.start)
+        stopped = 0
+
+        def snapshot() -> dict[str, Any]:
+            return {"simulation": self.state(), "writers": [part_state(w) for w in writers]}
+
         try:
             while t < spec.end - 1e-12 * (spec.end - spec.start):
-                t_new, report, cuts = self.step(t)
-                dt, t = t_new - t, t_new
-                row = self.observe(t) | {
-                    "dt": dt,
-                    "newton_iterations": report.iterations,
-                    "cuts": cuts,
-                }
-                rows.append(row)
-                for contact in self.problem.contacts:
-                    for message in contact.events():
-                        self.events.say(message)
-                for w in writers:
-                    w.write(self.controller.steps, t, row)
-                if self.events.bar is not None:
-                    self.events.bar.update(dt)
-                    self.events.bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
-            complete = True
-        finally:
-            if self.events.bar is not None:
-                self.events.bar.close()
-                self.events.bar = None
-            for w in writers:
-                w.close()
-            history = {k: np.array([r.get(k, np.nan) for r in rows]) for k in self.columns()}
-            for w in writers:
-                w.finish(history, complete=complete)
+                t = self._advance(t, writers)
+                stopped = control.end_of_step(self.comm, self.controller.steps, t, snapshot)
+                if stopped:
+                    break
+        except SimulationError:  # raised on every rank alike: write what there is
+            self._close_bar()
+            self._finish(writers, complete=False)
+            raise
+        finally:  # another exception may be this rank's alone: nothing collective
+            self._close_bar()
+        if not stopped and (control.written or control.resume is not None):
+            control.save(self.controller.steps, t, snapshot(), "end")  # the folder's is current
+        history = self._finish(writers, complete=not stopped)
+        if stopped:
+            where = control.written[-1] if control.written else None
+            raise RunInterrupted(
+                stopped,
+                f"at t = {t:.6g} s after step {self.controller.steps}"
+                + (f"; checkpoint {where}" if where is not None else "; no checkpoint"),
+            )
         timings = self.timings()
         timings["total"] = _time.perf_counter() - t_wall
         return SimulationResult(history, self.summary(history), {}, list(self.log), timings)
+
+    def _start(self, writers: Sequence[Writer], control: RunControl) -> float:
+        """The initial state (t₀ or a checkpoint's), written or restored; returns its time (s)."""
+        if control.resume is not None:
+            t = self.restore(control.resume["simulation"])
+            for w, state in zip(writers, control.resume["writers"], strict=True):
+                load_part_state(w, state)
+            return t
+        self.initialise()
+        t = self.time_spec.start
+        self.rows = [self.observe(t) | {"dt": 0.0, "newton_iterations": 0, "cuts": 0}]
+        for w in writers:
+            w.write(0, t, self.rows[0])
+        return t
+
+    def _advance(self, t: float, writers: Sequence[Writer]) -> float:
+        """One accepted step from t, observed and written; returns the new time (s)."""
+        t_new, report, cuts = self.step(t)
+        dt = t_new - t
+        row = self.observe(t_new) | {
+            "dt": dt,
+            "newton_iterations": report.iterations,
+            "cuts": cuts,
+        }
+        self.rows.append(row)
+        for contact in self.problem.contacts:
+            for message in contact.events():
+                self.events.say(message)
+        for w in writers:
+            w.write(self.controller.steps, t_new, row)
+        if self.events.bar is not None:
+            self.events.bar.update(dt)
+            self.events.bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
+        return t_new
+
+    def _close_bar(self) -> None:
+        if self.events.bar is not None:
+            self.events.bar.close()
+            self.events.bar = None
+
+    def _finish(
+        self, writers: Sequence[Writer], *, complete: bool
+    ) -> dict[str, npt.NDArray[np.float64]]:
+        """The writers write the last state, close and finish (collective); returns the history."""
+        step, row = self.controller.steps, self.rows[-1]
+        for w in writers:
+            w.last(step, float(row["time"]), row)
+            w.close()
+        history = {k: np.array([r.get(k, np.nan) for r in self.rows]) for k in self.columns()}
+        for w in writers:
+            w.finish(history, complete=complete)
+        return history
+
+    # --- checkpoints ------------------------------------------------------------------------
+
+    def state(self) -> dict[str, Any]:
+        """This rank's state at the last accepted step (:func:`.checkpoint.run_state`)."""
+        return run_state(self)
+
+    def restore(self, state: dict[str, Any]) -> float:
+        """Continue from :meth:`state` (:func:`.checkpoint.restore_run`); returns t_n (s)."""
+        return restore_run(self, state)
 
     def summary(self, history: dict[str, npt.NDArray[np.float64]]) -> dict[str, float]:
         """Step counts, the history's summary scalars and the contacts' (identical on all ranks)."""

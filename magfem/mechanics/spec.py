@@ -328,7 +328,25 @@ class OutputSpec:
     """``[output]``: what is written while the run goes."""
 
     csv: bool = True
-    vtx_every: int = integer(10, ge=0, doc="write the displacement to VTX every N steps (0: never)")
+    vtx_every: int = integer(
+        10, ge=0, doc="write the displacement to VTX every N steps and at the end (0: never)"
+    )
+    vtu_every: int = integer(
+        10,
+        ge=0,
+        doc="write the P1 displacement as a VTU/PVD series (pyvista, ParaView) every N steps "
+        "and at the end (0: never)",
+    )
+    checkpoint_every: int = integer(
+        0, ge=0, doc="write a checkpoint every N steps (0: not by steps)"
+    )
+    checkpoint_interval: float = quantity(
+        "10 min",
+        "s",
+        ge=0.0,
+        doc="write a checkpoint when this much wall time has passed since the last "
+        "(0: not by time)",
+    )
     plot: bool = True
     animation: bool = True
     """GIF of the motion (``motion.gif``, :func:`magfem.mechanics.animation.write_animation`)."""

@@ -15,7 +15,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -131,6 +132,19 @@ class StepController:
             self.say(f"t = {t:.6g} s: easy steps; step grown {self.dt:.3g} -> {new_dt:.3g} s")
             self.dt = new_dt
             self._easy = 0
+
+    def state(self) -> dict[str, Any]:
+        """Its memory (step length, counts, streaks: every plain attribute), for checkpoints."""
+        return {
+            k: v
+            for k, v in vars(self).items()
+            if isinstance(v, bool | int | float | str | np.ndarray | list | tuple)
+        }
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        for k, v in state.items():
+            setattr(self, k, v)
 
     def summary(self) -> dict[str, float]:
         """Step counts of the run."""

@@ -80,7 +80,7 @@ def _point_job(
     pdir = out / "points" / pt.ident
     prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
     cmd = [*prefix, sys.executable, "-m", "magfem", "run", str(case_path), "--out", str(pdir)]
-    cmd.append("-q")
+    cmd += ["--overwrite", "-q"]  # a rerun (retry, or after a kill) replaces the point's run
     for item in [*base_overrides, *pt.overrides()]:
         cmd += ["--set", item]
     return PointJob(pt.ident, pt.params, cmd, str(pdir), fprint, ranks)
@@ -127,8 +127,8 @@ class _LocalRunner:
                 self.procs.pop(job.ident, None)
         wall = time.perf_counter() - t0
         status = record_point(job, rc, wall)
-        if status is None:
-            self.log(f"killed {job.ident} (exit status {rc})")
+        if status is None:  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
+            self.log(f"killed {job.ident} (signal {-rc if rc < 0 else rc - 128})")
             return
         self.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
         with self.lock:

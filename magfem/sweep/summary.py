@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from magfem.mechanics.columns import read_history
 from magfem.mechanics.observers import history_summary
 from magfem.sweep.points import format_number
 
@@ -46,11 +47,9 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     hist = run_dir / "history.csv"
     if not hist.is_file():
         return {}
-    with hist.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    if not rows:
+    cols, _ = read_history(hist)  # headers with units (time [s]) or without
+    if not cols or len(cols.get("time", ())) == 0:
         return {}
-    cols = {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
     resolved: dict[str, Any] = {}
     if (run_dir / "case.resolved.toml").is_file():
         resolved = tomllib.loads((run_dir / "case.resolved.toml").read_text(encoding="utf-8"))

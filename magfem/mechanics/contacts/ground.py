@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 import operator
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -298,6 +298,16 @@ class GroundContact(Contact):
         if self.absorber is not None:
             integ = self.model.integrator
             self.absorber.apply(integ.u0, integ.v0, integ.a0)
+
+    def state(self) -> dict[str, Any]:
+        """The columns below the ground at the last step (the impact absorber's memory)."""
+        touching = self.absorber.touching if self.absorber is not None else np.zeros(0, np.int64)
+        return {"touching": np.asarray(touching, dtype=np.int64)}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        if self.absorber is not None:
+            self.absorber.touching = np.asarray(state["touching"], dtype=np.int64)
 
     def press(self, model: Model, acceleration: npt.NDArray[np.float64]) -> None:
         """Start a quasi-static settle from the resting penetration of a body lying on the ground.

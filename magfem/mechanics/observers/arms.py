@@ -50,7 +50,7 @@ Points are evaluated in parallel and every rank holds the same values
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -323,6 +323,16 @@ class ArmAngles(Observer):
 
     def columns(self) -> list[str]:
         return [f"angle_{a.name}" for a in self.arms]
+
+    def state(self) -> dict[str, Any]:
+        """The unwrapping of every arm's angle (its last raw value and turns so far)."""
+        return {n: {"last": w.last, "offset": w.offset} for n, w in self.unwrap.items()}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue the unwrapping from :meth:`state`."""
+        for name, saved in state.items():
+            self.unwrap[name].last = saved["last"]
+            self.unwrap[name].offset = float(saved["offset"])
 
     def observe(self, t: float) -> dict[str, float]:
         gdim = self.gdim

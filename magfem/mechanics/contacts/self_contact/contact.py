@@ -10,6 +10,7 @@ go to the log.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -200,6 +201,24 @@ class SelfContact(Contact):
     def events(self) -> list[str]:
         out, self._events = self._events, []
         return out
+
+    def state(self) -> dict[str, Any]:
+        """Touching pairs, first touches, largest force and penetration, pending events."""
+        return {
+            "active": [[i, j, a] for (i, j), a in self._active.items()],
+            "first_touch": [[i, j, t] for (i, j), t in self.first_touch.items()],
+            "max_force": self.max_force,
+            "max_penetration": self.max_penetration,
+            "events": list(self._events),
+        }
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        self._active = {(int(i), int(j)): bool(a) for i, j, a in state["active"]}
+        self.first_touch = {(int(i), int(j)): float(t) for i, j, t in state["first_touch"]}
+        self.max_force = float(state["max_force"])
+        self.max_penetration = float(state["max_penetration"])
+        self._events = list(state["events"])
 
     def summary(self) -> dict[str, float]:
         """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)."""
