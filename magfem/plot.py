@@ -266,11 +266,14 @@ def plot_scene(
     return plot_mesh_groups(path, items, title=title or case.name, view="iso", comm=comm)
 
 
+SCENE_TITLE = "coil pair (115 mm, 35 mm thick, 70 mm apart) with a 7.5 mm trapezoid arm"
+
+
 def _scene_case() -> Any:
     """The coil pair of the experiments (axis x) with the default trapezoid at its centre."""
     return parse_case(
         {
-            "name": "coil pair (115 mm, 35 mm thick, 70 mm apart) with a 7.5 mm trapezoid arm",
+            "name": "coil_pair_scene",
             "robot": {"shape": "trapezoid", "thickness": "80 um"},
             "mesh": {"size": "0.5 mm"},
             "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3"},
@@ -296,7 +299,7 @@ def _gallery(outdir: Path) -> None:
         if out is not None:
             print(out, flush=True)
     case = _scene_case()
-    out = plot_scene(case, outdir / "scene_coil_pair.png", title=case.name)
+    out = plot_scene(case, outdir / "scene_coil_pair.png", title=SCENE_TITLE)
     if out is not None:
         print(out, flush=True)
 

@@ -63,7 +63,7 @@ SPHERE_CASE = {
     "name": "iron-sphere",
     "field": {
         "workspace_size": "6 mm",
-        "expansion_point": [0, 0, 0.01],
+        "expansion_point": [0, 0, "10 mm"],
         "sources": [{"kind": "uniform", "flux_density": "1 mT", "direction": [0, 0, 1]}],
         "iron": [{"kind": "sphere", "radius": "5 mm", "permeability": 1000}],
         "motions": [],

@@ -183,7 +183,7 @@ def _gravity_sag(repo, comm, thickness_mm: float, shear_kpa: float, size_mm: flo
         f"material.shear_modulus={shear_kpa}kPa",
         f"mesh.size={size_mm}mm",
         "mesh.layers=2",
-        "environment.gravity=[0,0,-9.8]",
+        'environment.gravity=[0,0,"-9.8 m/s^2"]',
         "contact.ground=false",
         "field.sources.0.flux_density=0mT",
         "time.end=1s",
