@@ -29,6 +29,9 @@ lies on each end of the clamped stretch, on every arm root and every tip.
 Groups: cells ``arm``/``arm_<i>``/``petal_<i>``/... and ``hub``; vertices
 ``clamp`` and the tips (``tip``, ``tip_<arm>``).
 
+Every cell lives on rank 0 (a rod is too small to split); other ranks take
+part in the collective calls with no cells.
+
 Other outlines (manta, membrane, disk, slim triangle fins...) have no rod
 model (:class:`~magfem.config.CaseError`).
 """
@@ -46,6 +49,7 @@ import basix.ufl
 import meshio
 import numpy as np
 import numpy.typing as npt
+from dolfinx import graph
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
@@ -300,6 +304,17 @@ def _vertex_tags(msh: Any, layout: RodLayout, origin: Any, groups: dict[str, int
     return dmesh.meshtags(msh, 0, idx.astype(np.int32), val[first].astype(np.int32))
 
 
+def _on_first_rank(comm: Any, nparts: int, cell_types: Any, cells: Any) -> Any:
+    """Cell partitioner that keeps every cell on rank 0.
+
+    A rod has tens to a few hundred cells: split over ranks, each assembly
+    and solve would trade a few microseconds of work for a message exchange.
+    The other ranks hold no cells and take part in the collective calls.
+    """
+    n_local = len(cells[0]) // 2
+    return graph.adjacencylist(np.zeros(n_local, dtype=np.int32))._cpp_object
+
+
 def _write_msh(path: Path, x: Any, cells: Any, cell_tags: Any, groups: dict, vertices: Any) -> None:
     """A gmsh file of the rod (lines and tagged vertices) for ``magfem mesh`` (rank 0)."""
     blocks = [("line", cells)] + [("vertex", v[:, None]) for v, _ in vertices]
@@ -340,7 +355,12 @@ def build_rod_mesh(
     element: Any = basix.ufl.element("Lagrange", "interval", 1, shape=(3,))
     mine = slice(None) if comm.rank == 0 else slice(0, 0)
     msh = dmesh.create_mesh(
-        comm, cells[mine], element, x[mine], max_facet_to_cell_links=max(2, degree)
+        comm,
+        cells[mine],
+        element,
+        x[mine],
+        partitioner=_on_first_rank if comm.size > 1 else None,
+        max_facet_to_cell_links=max(2, degree),
     )
     names = list(dict.fromkeys(b.group for b in layout.branches))
     groups = {name: (1, i + 1) for i, name in enumerate(names)}
