@@ -24,6 +24,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from magfem import __version__
+from magfem.accuracy import resolve_model, rod_adequacy
 from magfem.case import Case, FieldCase, load_case, load_field_case, write_resolved_case
 from magfem.config import CaseError
 from magfem.field.run import run_field
@@ -60,6 +61,11 @@ def _summary(case: Case) -> str:
     resolution = case.resolution()
     if resolution:
         lines.append(f"bending   {resolution}")
+    rod = rod_adequacy(case)
+    lines.append(f"rod       {'adequate' if rod.adequate else 'not adequate'}: {rod.reason}")
+    choice = resolve_model(case)[1]
+    if choice is not None:
+        lines.append(f"model     {choice}")
     return "\n".join(lines)
 
 

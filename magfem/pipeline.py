@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from magfem.accuracy import resolve_model
 from magfem.case import Case
 from magfem.field.model import FieldModel, create_field_model
 from magfem.field.spec import FieldSpec
@@ -40,6 +41,7 @@ from magfem.mechanics.observers import (
 from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
 from magfem.mechanics.problem import build_problem
 from magfem.mechanics.simulation import Simulation, SimulationResult
+from magfem.parallel import rank0_print
 
 __all__ = ["build_simulation", "create_writers", "drive_frequency", "simulate"]
 
@@ -70,6 +72,9 @@ def build_simulation(
         magfem.config.CaseError: the case cannot be simulated (groups, model refusals).
     """
     t0 = time.perf_counter()
+    case, choice = resolve_model(case)
+    if choice is not None:
+        rank0_print(choice, comm=comm)
     if robot_mesh is None:
         robot_mesh = create_robot_mesh(case.robot, case.mesh, comm)
     if field_model is None:
@@ -210,6 +215,7 @@ def simulate(
         magfem.mechanics.stepping.SimulationError: Newton failed at the smallest
             step (the outputs so far are kept).
     """
+    case = resolve_model(case)[0]
     sim = build_simulation(case, comm)
     outdir = Path(outdir)
     if comm.rank == 0:
