@@ -516,19 +516,27 @@ HALF_PERIOD = 25e-3  # s, first half period of the drive
 
 
 def narrow_drive_history(
-    comm: MPI.Comm, *, model: str, size: float, degree: int, step: float, end: float = HALF_PERIOD
+    comm: MPI.Comm,
+    *,
+    model: str,
+    size: float,
+    degree: int,
+    step: float,
+    end: float = HALF_PERIOD,
+    plane: str = "strain",
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(time in s, tip angle in rad) of the narrow cantilever driven by :data:`DRIVE`.
 
     The elastica's arm (:func:`cantilever_case`, bonded root, no gravity, no
     ground), NARROW_WIDTH wide (the shell with one element across), fixed
-    steps ``step`` (s) with ρ∞ = 0.5, P``degree`` elements of ``size`` (m).
+    steps ``step`` (s) with ρ∞ = 0.5, P``degree`` elements of ``size`` (m);
+    ``plane`` as in :func:`cantilever_case` (``stress`` for the strip of a narrow arm).
     """
     case = cantilever_case(
         model,
         size,
         NARROW_WIDTH,
-        "strain",
+        plane,
         name="narrow_drive",
         size_across=NARROW_WIDTH if model == "surface" else None,
         field=DRIVE,
