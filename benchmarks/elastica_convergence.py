@@ -10,8 +10,7 @@ beam modulus E; a 2 mm wide 3D arm sits between beam and plate, see
 docs/verification.md).
 
 Part 1b (``--rigid``), the rod model's own clamp: the whole root block
-(x <= 1 mm) fixed through ``fixed_point``/``fixed_radius`` (a 1 m ball whose
-surface crosses the arm 1 µm past the block), K = μ (ν = 1/8) so the Poisson
+(x <= 1 mm) held (``[mesh] root = "rigid"``), K = μ (ν = 1/8) so the Poisson
 contraction the rigid face forbids is a ν² = 1.6 % effect. Plane-strain strip
 (0.1-0.4 mT; the bonded patch at K = μ for contrast) and the narrow 3D arm
 (0.1, 0.2 mT), with the discretisation part of the 3D error (vs the finest level).
@@ -60,7 +59,8 @@ def static_row(
 ):
     """(FE angles °, errors °, elastica angles °, dofs, wall s) of one static run.
 
-    ``ramp``: ``b_max``, ``fractions``, ``step`` of :func:`verification.static_tip_angles`.
+    ``ramp``: ``b_max``, ``fractions``, ``step``, ``root`` of
+    :func:`verification.static_tip_angles`.
     """
     t0 = time.perf_counter()
     sim, fields, fe = vc.static_tip_angles(
@@ -105,7 +105,7 @@ def rigid_tables(comm: Any) -> None:
             "strip",
             2e-3,
             plate,
-            vc.rigid_root_block(2e-3),
+            "rigid",
             [0.5e-3, 0.25e-3, 0.125e-3, 0.0625e-3],
             {},
         ),
@@ -114,7 +114,7 @@ def rigid_tables(comm: Any) -> None:
             "strip",
             2e-3,
             plate,
-            None,
+            "bonded",
             [0.5e-3, 0.25e-3, 0.125e-3, 0.0625e-3],
             {},
         ),
@@ -123,16 +123,16 @@ def rigid_tables(comm: Any) -> None:
             "solid",
             0.25e-3,
             E,
-            vc.rigid_root_block(0.25e-3),
+            "rigid",
             [0.25e-3, 0.125e-3, 0.0625e-3],
             {"b_max": 0.2e-3, "fractions": (0.5, 1.0), "step": 0.125},
         ),
     ]
     solid_errors = []
-    for title, model, width, modulus, env, sizes, extra in runs:
+    for title, model, width, modulus, root, sizes, extra in runs:
         for size in sizes:
             fe, err, exact, dofs, wall = static_row(
-                comm, model, size, width, "strain", modulus, bulk=soft, environment=env, **extra
+                comm, model, size, width, "strain", modulus, bulk=soft, root=root, **extra
             )
             cells = "  ".join(f"{a:7.3f} ({e:+.4f})" for a, e in zip(fe, err, strict=True))
             report.row(f"{title[:30]:30} {size * 1e3:7.4g} {dofs:6d} {wall:6.1f}  {cells}")

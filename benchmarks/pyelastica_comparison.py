@@ -9,7 +9,7 @@ vertical by 6 ms and swings there). Observable: the tip angle every
 millisecond; error: its largest difference over 0–25 ms from the same
 code's finest run (each code's converged reference).
 
-magfem: ``[mesh] model = "rod"`` (``rod_root = "rigid"``, ``rod_bending =
+magfem: ``[mesh] model = "rod"`` (``root = "rigid"``, ``rod_bending =
 "beam"``), implicit generalized-α (ρ∞ = 0.5), steps of Δt (cut where Newton
 fails). PyElastica
 (optional: ``pip install pyelastica``): a Cosserat rod with the same
@@ -66,7 +66,8 @@ def magfem_run(size: float, degree: int, step: float) -> tuple[float, np.ndarray
         W,
         "strain",
         name="pyelastica_comparison",
-        mesh_options={"rod_root": "rigid", "rod_bending": "beam"},
+        root="rigid",
+        mesh_options={"rod_bending": "beam"},
         field=vc.DRIVE,
         time={"end": END, "step": step, "rho_inf": 0.5},
         solver={"degree": degree},

@@ -74,7 +74,7 @@ def rod_adequacy(case: Case) -> RodAdequacy:
         layout = rod_layout(
             outline_of(robot),
             robot,
-            root=case.mesh.rod_root,
+            root=case.mesh.root,
             inset=SHELL_CLAMP_INSET * robot.thickness,
         )
     except CaseError as err:

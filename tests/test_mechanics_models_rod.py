@@ -36,7 +36,7 @@ def test_rigid_rod_converges_to_beam_elastica(comm):
     """Rigid clamp at the patch edge, beam law E I: the elastica of the free length."""
     errors = np.array(
         [
-            tip_errors(comm, size, 0.25e-3, E, rod_root="rigid", rod_bending="beam")
+            tip_errors(comm, size, 0.25e-3, E, root="rigid", rod_bending="beam")
             for size in (0.5e-3, 0.25e-3, 0.125e-3)
         ]
     )  # (levels, loads), degrees
@@ -50,12 +50,12 @@ def test_rigid_rod_converges_to_beam_elastica(comm):
 def test_wide_rod_plate_law_matches_plate_elastica(comm):
     """A 2 mm wide arm with the plate law E I/(1 − ν²): the plate elastica (+8° over the beam)."""
     plate = ref.bending_modulus(E, NU, "plate")
-    errors = tip_errors(comm, 0.125e-3, 2e-3, plate, rod_root="rigid", rod_bending="plate")
+    errors = tip_errors(comm, 0.125e-3, 2e-3, plate, root="rigid", rod_bending="plate")
     assert np.all(errors < 0.005), errors  # the beam test's mesh bound at the same size
 
 
 def test_bonded_rod_is_elastica_of_inset_length(comm):
-    """rod_root = bonded clamps SHELL_CLAMP_INSET·t inside the patch: that length's elastica."""
+    """root = bonded clamps SHELL_CLAMP_INSET·t inside the patch: that length's elastica."""
     free = FREE + SHELL_CLAMP_INSET * H
     errors = tip_errors(comm, 0.125e-3, 0.25e-3, E, free=free, rod_bending="beam")
     assert np.all(errors < 0.005), errors  # as the rigid clamp: the inset is exact length

@@ -31,7 +31,6 @@ from magfem import material
 from verification import references as ref
 from verification import setups as vc
 from verification.setups import elastica_reference_angles as reference_angles
-from verification.setups import rigid_root_block
 
 CLAMP, MU = vc.CLAMP_LENGTH, vc.SHEAR_MODULUS
 
@@ -39,13 +38,11 @@ CLAMP, MU = vc.CLAMP_LENGTH, vc.SHEAR_MODULUS
 def static_tip_angles(comm, **kwargs):
     """(B in T, tip angles in rad) of :func:`verification.static_tip_angles`.
 
-    With a rigid root block (``environment`` with ``fixed_point``) it also
-    checks that the support is what it claims: every node of x <= CLAMP is
-    fixed, and only those.
+    With a rigid root (``root = "rigid"``) it also checks that the support is
+    what it claims: every node of x <= CLAMP is fixed, and only those.
     """
     sim, fields, angles = vc.static_tip_angles(comm, **kwargs)
-    environment = kwargs.get("environment")
-    if environment is not None and environment.get("fixed_point") is not None:
+    if kwargs.get("root") == "rigid":
         V = sim.u.function_space
         x = V.tabulate_dof_coordinates()[:, 0]
         bs = V.dofmap.index_map_bs
@@ -120,7 +117,7 @@ def test_strip_rigid_root_converges_to_elastica(comm):
             width=2e-3,
             plane="strain",
             bulk_modulus=K_SOFT,
-            environment=rigid_root_block(2e-3),
+            root="rigid",
         )
         errors.append(np.degrees(np.abs(fe - reference_angles(modulus, fields))))
     errors = np.array(errors)  # (levels, loads), degrees; tip angles 62-86°
@@ -152,7 +149,7 @@ def test_narrow_solid_rigid_root_converges_to_beam_elastica(comm):
             b_max=0.2e-3,
             fractions=(0.5, 1.0),
             bulk_modulus=K_SOFT,
-            environment=rigid_root_block(0.25e-3),
+            root="rigid",
             step=0.125,
         )
         errors.append(np.degrees(np.abs(fe - reference_angles(E, fields))))

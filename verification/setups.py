@@ -95,6 +95,7 @@ def cantilever_case(
     size_across: float | None = None,
     layers: int = 1,
     mesh_options: dict[str, Any] | None = None,
+    root: str = "bonded",
     **tables: Any,
 ) -> Case:
     """The cantilever's case; ``tables`` (``field``, ``time``, ...) are added as they are.
@@ -107,7 +108,9 @@ def cantilever_case(
             bonded root strip as the support.
         size_across: ``mesh.size_across`` (m), None: ``size``.
         layers: ``mesh.layers`` (elements through the thickness).
-        mesh_options: further ``[mesh]`` keys (``rod_root``, ``rod_bending``).
+        mesh_options: further ``[mesh]`` keys (``rod_bending``).
+        root: ``mesh.root``: ``bonded`` (the glued bottom face) or ``rigid``
+            (the whole root block, every node of x <= CLAMP_LENGTH).
     """
     material: dict[str, Any] = {
         "shear_modulus": SHEAR_MODULUS,
@@ -127,7 +130,7 @@ def cantilever_case(
                 "width": width,
                 "clamp_length": CLAMP_LENGTH,
             },
-            "mesh": {"size": size, "model": model, "layers": layers}
+            "mesh": {"size": size, "model": model, "layers": layers, "root": root}
             | ({} if size_across is None else {"size_across": size_across})
             | (mesh_options or {}),
             "material": material,
@@ -146,25 +149,6 @@ def field_ramp(b_max: float) -> dict[str, Any]:
         "flux_density": b_max,
         "direction": [-1, 0, 0],
         "waveform": {"kind": "table", "times": [0, 1], "values": [0, 1]},
-    }
-
-
-def rigid_root_block(width: float) -> dict[str, Any]:
-    """``[environment]`` that fixes every node with x <= CLAMP_LENGTH (the whole root block, u = 0).
-
-    Through the public ``fixed_point``/``fixed_radius`` support: a ball of
-    radius R = 1 m whose surface crosses the arm at x = CLAMP_LENGTH + 1 µm.
-    Over the section (|y − w/2| <= w/2, |z − h/2| <= h/2) the sphere departs
-    from the plane by at most (w² + h²)/(8R) < 10 nm, far below the 1 µm
-    margin and the >= 31 µm distance to the next node row (P2 at size >=
-    62.5 µm). Strip meshes use (x, z) of the point.
-    """
-    radius = 1.0
-    return {
-        "gravity": [0, 0, 0],
-        "clamped": [],
-        "fixed_point": [CLAMP_LENGTH + 1e-6 - radius, width / 2, THICKNESS / 2],
-        "fixed_radius": radius,
     }
 
 
@@ -222,6 +206,7 @@ def static_tip_angles(
     size_across: float | None = None,
     layers: int = 1,
     mesh_options: dict[str, Any] | None = None,
+    root: str = "bonded",
 ) -> tuple[Simulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
 
@@ -229,7 +214,7 @@ def static_tip_angles(
     then evaluated at the field the step did reach (B = t × b_max).
     ``environment`` replaces the default support (the bonded root strip);
     ``step`` is the first quasi-static step (default: the first fraction);
-    ``size_across``, ``layers`` and ``mesh_options`` as in :func:`cantilever_case`.
+    ``size_across``, ``layers``, ``root`` and ``mesh_options`` as in :func:`cantilever_case`.
     """
     case = cantilever_case(
         model,
@@ -242,6 +227,7 @@ def static_tip_angles(
         size_across=size_across,
         layers=layers,
         mesh_options=mesh_options,
+        root=root,
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
     )

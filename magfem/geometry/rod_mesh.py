@@ -22,7 +22,7 @@ the half-disk end of a flower petal sampled where the rod's quadrature asks.
 
 The bonded patch (``clamp``) is a vertex group: every midline vertex over the
 patch shrunk by :data:`~magfem.geometry.robot_mesh.SHELL_CLAMP_INSET`
-thicknesses at its free edges (``[mesh] rod_root = "bonded"``, the default:
+thicknesses at its free edges (``[mesh] root = "bonded"``, the default:
 the root compliance of a bonded membrane, as the shell), or over the patch
 itself (``"rigid"``: the rod's rigid clamp at the patch edge). A mesh vertex
 lies on each end of the clamped stretch, on every arm root and every tip.
@@ -107,7 +107,7 @@ class RodLayout:
     Attributes:
         branches: the branches, arms first.
         in_clamp: vectorised (x, y) -> bool: the clamped points (the bonded
-            patch, inset for ``rod_root = "bonded"``).
+            patch, inset for ``root = "bonded"``).
         tips: arm tip group -> tip point (2,).
     """
 
@@ -215,10 +215,10 @@ def rod_layout(outline: Outline, robot: RobotSpec, *, root: str, inset: float) -
             held = outline.inset_clamp(inset)
         except ValueError as err:
             raise CaseError(
-                "mesh.rod_root",
+                "mesh.root",
                 root,
                 f"the bonded patch is held less {inset:g} m at its free edges, and {err}: "
-                "use rod_root = 'rigid' or a longer bonded patch",
+                "use root = 'rigid' or a longer bonded patch",
             ) from None
     tips = {}
     for arm in outline.arms:

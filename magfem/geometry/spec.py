@@ -149,6 +149,10 @@ ROD_BENDING = ("anticlastic", "beam", "plate")
 """Out-of-plane bending law of the rod's section (:mod:`magfem.mechanics.models.rod_section`)."""
 
 
+ROOTS = ("bonded", "rigid")
+"""``[mesh] root``: how the bonded patch holds the membrane (:class:`MeshSpec`)."""
+
+
 @dataclass(frozen=True)
 class MeshSpec:
     """``[mesh]``: how the robot is discretised. Only ``size`` is required.
@@ -165,11 +169,20 @@ class MeshSpec:
     bending varies along the arm: ``size = 0.25mm, size_across = 1mm`` resolves
     the bending like a 0.25 mm mesh with a quarter of its elements.
 
+    ``root`` says how the bonded patch (the ``clamp`` group) holds the
+    membrane. ``bonded`` (default) is the experiments' glued bottom face: the
+    solid and strip hold that face only, so the membrane above it is as
+    compliant as it is; the shell, which has no bottom face, clamps the patch
+    less 0.41 thicknesses at its free edges, the measured compliance of the
+    bonded root (docs/verification.md). ``rigid`` holds the whole patch
+    through the thickness up to its edge: the textbook clamp of beam theory.
+
     The ``rod`` model meshes the arms' midlines with elements of ``size``
-    along them; ``rod_bending`` and ``rod_root`` choose its section law and
-    how a bonded patch holds it (docs/mechanics.md, "Rod"). ``auto`` picks the
-    model for the case (the rod where it is adequate, else the shell or the
-    solid; ``magfem check`` says which and why).
+    along them; ``rod_bending`` chooses its section law, and ``root`` holds
+    it like the shell: ``bonded`` less 0.41 thicknesses inside the patch's
+    free edges, ``rigid`` at the edge (docs/mechanics.md, "Rod"). ``auto``
+    picks the model for the case (the rod where it is adequate, else the
+    shell; ``magfem check`` says which and why).
     """
 
     size: float = quantity(unit="m", gt=0, doc="in-plane element size")
@@ -187,11 +200,11 @@ class MeshSpec:
         doc="rod model: bending about the width axis; anticlastic (beam at small curvature, "
         "plate at large, Ashwell), beam (E I) or plate (E I/(1 - nu^2))",
     )
-    rod_root: str = option(
+    root: str = option(
         "bonded",
-        ("bonded", "rigid"),
-        doc="rod model: a bonded patch is clamped less 0.41 thicknesses at its free edges "
-        "(bonded, the root compliance) or up to its edge (rigid)",
+        ROOTS,
+        doc="how the clamp patch holds the membrane: bonded (its bottom face glued) or rigid "
+        "(held through the thickness up to the patch's edge)",
     )
 
     def __post_init__(self) -> None:

@@ -2,6 +2,7 @@
 
     magfem sweep CASE --param NAME=VALUES [--param NAME=VALUES ...]
                       [--set KEY=VALUE ...] [--jobs N] [--np K] [--out DIR] [--retry-failed]
+                      [--engine local|slurm|submitit-local] [--engine-option KEY=VALUE ...]
 
 ``NAME`` is a case key as for ``--set`` (``robot.thickness``,
 ``field.sources.0.waveform.frequency``). ``VALUES`` is either
@@ -18,7 +19,9 @@ given (the last parameter varies fastest); ``run_sweep(..., paired=True)``
 pairs the lists element-wise instead (a frequency with its two-period end
 time; drive amplitudes with their frequencies). Each point runs as its own
 process ``python -m magfem run CASE --out DIR/points/<id> --set ...`` (``mpirun
--n K`` in front with ``--np K``), at most ``--jobs`` at a time.
+-n K`` in front with ``--np K``), at most ``--jobs`` at a time, as local
+processes or as the jobs of a cluster (``--engine slurm``: a SLURM job array
+through submitit; :mod:`magfem.sweep.engines`).
 
 Resuming. A point is *finished* when ``DIR/points/<id>/point.json`` exists
 and records the same parameters and the same base-case fingerprint (SHA-256
@@ -45,15 +48,18 @@ times and forces, the end time. Names and definitions: docs/physics.md,
 "Observables".
 """
 
+from magfem.sweep.engines import ENGINES, parse_engine_options
 from magfem.sweep.points import Point, build_points, fingerprint, parse_param
 from magfem.sweep.runner import SweepResult, run_sweep
 from magfem.sweep.summary import plot_sweep, summarize_history, write_summary
 
 __all__ = [
+    "ENGINES",
     "Point",
     "SweepResult",
     "build_points",
     "fingerprint",
+    "parse_engine_options",
     "parse_param",
     "plot_sweep",
     "run_sweep",

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,8 +16,15 @@ from typing import Any
 
 from magfem.case import load_case
 from magfem.config import CaseError
+from magfem.sweep.engines import (
+    CLUSTER_ENGINES,
+    ENGINES,
+    PointJob,
+    record_point,
+    run_on_cluster,
+)
 from magfem.sweep.points import SYNTAX, Point, build_points, fingerprint, parse_param
-from magfem.sweep.summary import plot_sweep, summarize_history, write_summary
+from magfem.sweep.summary import plot_sweep, write_summary
 
 __all__ = ["SweepResult", "run_sweep"]
 
@@ -44,12 +50,6 @@ def _read_record(point_dir: Path) -> dict[str, Any] | None:
     return record
 
 
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True), encoding="utf-8")
-    os.replace(tmp, path)
-
-
 def _mpirun() -> str:
     here = Path(sys.executable).parent / "mpirun"
     found = str(here) if here.is_file() else shutil.which("mpirun")
@@ -73,31 +73,34 @@ class _Log:
                 self.echo(msg)
 
 
-class _PointRunner:
-    """Runs sweep points as ``magfem run`` processes and records each in its ``point.json``."""
+def _point_job(
+    case_path: Path, out: Path, base_overrides: Sequence[str], fprint: str, ranks: int, pt: Point
+) -> PointJob:
+    """The ``magfem run`` of one point (``mpirun -n ranks`` in front when ranks > 1)."""
+    pdir = out / "points" / pt.ident
+    prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
+    cmd = [*prefix, sys.executable, "-m", "magfem", "run", str(case_path), "--out", str(pdir)]
+    cmd.append("-q")
+    for item in [*base_overrides, *pt.overrides()]:
+        cmd += ["--set", item]
+    return PointJob(pt.ident, pt.params, cmd, str(pdir), fprint, ranks)
 
-    def __init__(
-        self,
-        case_path: Path,
-        out: Path,
-        base_overrides: Sequence[str],
-        fprint: str,
-        ranks: int,
-        log: _Log,
-    ) -> None:
-        self.case_path, self.out, self.base_overrides = case_path, out, base_overrides
-        self.fprint, self.ranks, self.log = fprint, ranks, log
-        self.prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
+
+class _LocalRunner:
+    """Runs point jobs as local processes, ``jobs`` at a time, keeping their handles."""
+
+    def __init__(self, log: _Log) -> None:
+        self.log = log
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self.lock = threading.Lock()
         self.ran: list[str] = []
 
-    def run_all(self, todo: Sequence[Point], jobs: int) -> list[str]:
-        """Run ``todo``, ``jobs`` at a time; the ids of the points recorded. Ctrl-C stops
-        the points running (our own child processes, by handle) and re-raises."""
+    def run_all(self, todo: Sequence[PointJob], jobs: int) -> list[str]:
+        """Run ``todo``; the ids of the points recorded. Ctrl-C stops the points running
+        (our own child processes, by handle) and re-raises."""
         pool = ThreadPoolExecutor(max_workers=jobs)
         try:
-            for fut in [pool.submit(self.run, pt) for pt in todo]:
+            for fut in [pool.submit(self.run, job) for job in todo]:
                 fut.result()
         except KeyboardInterrupt:
             pool.shutdown(wait=False, cancel_futures=True)
@@ -109,40 +112,27 @@ class _PointRunner:
         pool.shutdown(wait=True)
         return self.ran
 
-    def run(self, pt: Point) -> None:
+    def run(self, job: PointJob) -> None:
         """One point; a point killed by a signal is left unfinished (no ``point.json``)."""
-        pdir = self.out / "points" / pt.ident
+        pdir = Path(job.point_dir)
         pdir.mkdir(parents=True, exist_ok=True)
-        cmd = [*self.prefix, sys.executable, "-m", "magfem", "run", str(self.case_path)]
-        cmd += ["--out", str(pdir), "-q"]
-        for item in [*self.base_overrides, *pt.overrides()]:
-            cmd += ["--set", item]
-        self.log(f"start {pt.ident} {json.dumps(pt.params)}")
+        self.log(f"start {job.ident} {json.dumps(job.params)}")
         t0 = time.perf_counter()
         with (pdir / "run.log").open("wb") as fh:
-            proc = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT)
+            proc = subprocess.Popen(job.command, stdout=fh, stderr=subprocess.STDOUT)
             with self.lock:
-                self.procs[pt.ident] = proc
+                self.procs[job.ident] = proc
             rc = proc.wait()
             with self.lock:
-                self.procs.pop(pt.ident, None)
+                self.procs.pop(job.ident, None)
         wall = time.perf_counter() - t0
-        if rc < 0:
-            self.log(f"killed {pt.ident} (signal {-rc})")
+        status = record_point(job, rc, wall)
+        if status is None:
+            self.log(f"killed {job.ident} (exit status {rc})")
             return
-        record = {
-            "params": pt.params,
-            "fingerprint": self.fprint,
-            "status": "done" if rc == 0 else "failed",
-            "returncode": rc,
-            "wall_s": wall,
-            "ranks": self.ranks,
-            "summary": summarize_history(pdir),
-        }
-        _write_json(pdir / "point.json", record)
-        self.log(f"{record['status']} {pt.ident} rc={rc} wall={wall:.1f}s")
+        self.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
         with self.lock:
-            self.ran.append(pt.ident)
+            self.ran.append(job.ident)
 
 
 def run_sweep(
@@ -155,6 +145,8 @@ def run_sweep(
     ranks: int = 1,
     retry_failed: bool = False,
     paired: bool = False,
+    engine: str = "local",
+    engine_options: Mapping[str, Any] | None = None,
     echo: Callable[[str], None] | None = print,
 ) -> SweepResult:
     """Run (or resume) a sweep; serial driver, each point a separate process.
@@ -168,17 +160,22 @@ def run_sweep(
         retry_failed: rerun points recorded as failed.
         paired: pair the ``--param`` lists element-wise (equal lengths) instead of
             taking their Cartesian product, e.g. a frequency with its two-period end time.
+        engine: where the points run (:data:`magfem.sweep.engines.ENGINES`).
+        engine_options: parameters of a cluster engine (e.g. SLURM ``partition``).
         echo: progress printer (None: silent).
 
     Raises:
-        CaseError: bad ``--param`` syntax, or a point whose case does not validate
-            (checked for every point before anything runs).
+        CaseError: bad ``--param`` syntax or engine, or a point whose case does not
+            validate (checked for every point before anything runs).
     """
-    case_path = Path(case_path)
-    if jobs < 1:
-        raise CaseError("--jobs", jobs, "must be >= 1")
-    if ranks < 1:
-        raise CaseError("--np", ranks, "must be >= 1")
+    case_path, out = Path(case_path), Path(outdir)
+    for key, value in (("--jobs", jobs), ("--np", ranks)):
+        if value < 1:
+            raise CaseError(key, value, "must be >= 1")
+    if engine not in ENGINES:
+        raise CaseError("--engine", engine, "must be one of " + ", ".join(ENGINES))
+    if engine_options and engine not in CLUSTER_ENGINES:
+        raise CaseError("--engine-option", ", ".join(engine_options), "needs a cluster engine")
     if not params:
         raise CaseError("--param", "(none)", "give at least one --param " + SYNTAX)
     load_case(case_path, base_overrides)  # file, syntax and base overrides
@@ -187,12 +184,34 @@ def run_sweep(
     points = build_points(parsed, fprint, paired=paired)
     for pt in points:
         load_case(case_path, [*base_overrides, *pt.overrides()])
-    out = Path(outdir)
     (out / "points").mkdir(parents=True, exist_ok=True)
     log = _Log(out / "sweep.log", echo)
-    runner = _PointRunner(case_path, out, base_overrides, fprint, ranks, log)
     result = SweepResult(records=[])
-    todo: list[Point] = []
+    todo = [
+        _point_job(case_path, out, base_overrides, fprint, ranks, pt)
+        for pt in _unfinished(points, out, fprint, retry_failed, result.skipped)
+    ]
+    log(
+        f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
+        f"{len(todo)} to run, jobs={jobs}, ranks={ranks}, engine={engine}"
+    )
+    if engine == "local":
+        result.ran = _LocalRunner(log).run_all(todo, jobs)
+    else:
+        folder = out / "submitit"
+        options = dict(engine_options or {})
+        result.ran = run_on_cluster(
+            engine, todo, folder, jobs=jobs, ranks=ranks, options=options, log=log
+        )
+    _summarise(result, points, [n for n, _ in parsed], out, paired, log)
+    return result
+
+
+def _unfinished(
+    points: Sequence[Point], out: Path, fprint: str, retry_failed: bool, skipped: list[str]
+) -> list[Point]:
+    """The points without a valid record (appending the others' ids to ``skipped``)."""
+    todo = []
     for pt in points:
         rec = _read_record(out / "points" / pt.ident)
         done = (
@@ -202,23 +221,29 @@ def run_sweep(
             and (rec.get("status") == "done" or not retry_failed)
         )
         if done:
-            result.skipped.append(pt.ident)
+            skipped.append(pt.ident)
         else:
             todo.append(pt)
-    log(
-        f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
-        f"{len(todo)} to run, jobs={jobs}, ranks={ranks}"
-    )
-    result.ran = runner.run_all(todo, jobs)
+    return todo
+
+
+def _summarise(
+    result: SweepResult,
+    points: Sequence[Point],
+    names: list[str],
+    out: Path,
+    paired: bool,
+    log: Callable[[str], None],
+) -> None:
+    """Gather every point's record into ``result``; write summary.csv and sweep.png."""
     for pt in points:
         rec = _read_record(out / "points" / pt.ident)
         result.records.append(
             {"point": pt.ident, "index": pt.index, "params": pt.params}
             | ({"status": "missing"} if rec is None else rec)
         )
-    result.paths["csv"] = write_summary(result.records, [n for n, _ in parsed], out)
-    png = plot_sweep(result.records, [n for n, _ in parsed], out / "sweep.png", paired=paired)
+    result.paths["csv"] = write_summary(result.records, names, out)
+    png = plot_sweep(result.records, names, out / "sweep.png", paired=paired)
     if png is not None:
         result.paths["png"] = png
     log(f"wrote {result.paths['csv']}" + (f" and {png}" if png else ""))
-    return result

@@ -45,7 +45,7 @@ shear locking. Inertia: ρA ü·δu plus the rotary inertia of the section,
 I_b = b t³/12, I_n = t b³/12.
 
 Supports: the ``clamp`` vertex group (the bonded patch less 0.41 t, or the
-whole patch: ``[mesh] rod_root``) holds u and θ; ``fixed_point`` holds u.
+whole patch: ``[mesh] root``) holds u and θ; ``fixed_point`` holds u.
 Hub spokes of radial robots are a rigid hub (:data:`~magfem.geometry.
 rod_mesh.HUB_STIFFENING`). Contact faces: the bottom and top surface points
 φ ∓ (t/2) d₃ of the midline, their tractions integrated over the width

@@ -3,7 +3,10 @@
 Supports (``[environment]``): the ``clamped`` groups (facets or cells) are
 held (u = 0, and a shell's angles too); ``fixed_point`` pins the nodes
 within ``fixed_radius`` of a point (or the nearest node); with neither the
-body is free.
+body is free. With ``[mesh] root = "rigid"`` the solid's and the strip's
+``clamp`` group (the bonded bottom patch) stands for the cells above it,
+through the thickness: the extruded mesh puts them in columns over the
+patch's facets.
 """
 
 from __future__ import annotations
@@ -13,13 +16,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from mpi4py import MPI
+from scipy.spatial import cKDTree
 
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh, locate
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 
 __all__ = [
+    "cells_above",
     "clamped_entities",
     "create_magnetization",
     "fixed_point_dofs",
@@ -88,8 +94,34 @@ def clamped_entities(env: EnvironmentSpec, robot: RobotMesh) -> list[tuple[int, 
                 name,
                 "no such group; groups are " + ", ".join(sorted(robot.groups)),
             )
-        out.append(locate(robot, name))
+        dim, entities = locate(robot, name)
+        if name == "clamp" and robot.root == "rigid" and robot.model in ("solid", "strip"):
+            dim, entities = robot.mesh.topology.dim, cells_above(robot.mesh, entities)
+        out.append((dim, entities))
     return out
+
+
+def cells_above(domain: Any, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+    """Local cells whose in-plane midpoint is a midpoint of one of ``facets`` (collective).
+
+    For a mesh extruded along its last coordinate (the solid's z, the strip's
+    second axis) from a bottom face, these are the columns of cells standing
+    on those bottom facets, every layer. The facets' midpoints are gathered
+    from every rank, so a column split between ranks is found on each.
+    """
+    tdim, gdim = domain.topology.dim, domain.geometry.dim
+    domain.topology.create_connectivity(tdim - 1, tdim)
+    mine = dmesh.compute_midpoints(domain, tdim - 1, facets)[:, : gdim - 1]
+    feet = np.vstack([m for m in domain.comm.allgather(mine) if len(m)] or [np.empty((0, 1))])
+    imap = domain.topology.index_map(tdim)
+    cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+    centres = dmesh.compute_midpoints(domain, tdim, cells)[:, : gdim - 1]
+    x = domain.geometry.x
+    scale = domain.comm.allreduce(float(np.abs(x).max()) if len(x) else 0.0, op=MPI.MAX)
+    if len(feet) == 0 or len(cells) == 0:
+        return np.empty(0, dtype=np.int32)
+    distance, _ = cKDTree(feet).query(centres)
+    return cells[distance <= 1e-9 * scale]
 
 
 def fixed_point_dofs(env: EnvironmentSpec, V: fem.FunctionSpace) -> npt.NDArray[np.int32]:
