@@ -15,10 +15,10 @@ a curvature that is uniform along the arm). That asks for
   2 mm arm in the default drive spans ~ℓ = 0.86 mm), which one section
   cannot hold.
 
-Measured (docs/verification.md §6): a 0.25 mm × 6.5 mm arm at 2 mT
-(b/ℓ = 0.29, L/b = 26) follows the shell within 0.15° while it rises and
-1.8° while it swings about vertical. ``auto`` picks the rod where it is
-adequate and the shell (``surface``) elsewhere.
+Measured (docs/verification.md §6b, §6e), 7.5 mm arms in 2 mT (ℓ = 0.86 mm),
+rod − shell while the arm rises: 0.25 mm wide (b/ℓ = 0.29) within 0.15°,
+0.5 mm (0.58) 0.04°, 1 mm (1.16) 0.49°, 2 mm (2.3) 1.56°. ``auto`` picks the
+rod where it is adequate and the shell (``surface``) elsewhere.
 """
 
 from __future__ import annotations
