@@ -34,6 +34,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from magfem import __version__
+from magfem.accuracy import resolve_model, rod_adequacy
 from magfem.case import Case, FieldCase, load_case, load_field_case, write_resolved_case
 from magfem.config import CaseError
 from magfem.errors import EXIT_FAILED, RunInterrupted, end_with
@@ -80,6 +81,11 @@ def _summary(case: Case) -> str:
     resolution = case.resolution()
     if resolution:
         lines.append(f"bending   {resolution}")
+    rod = rod_adequacy(case)
+    lines.append(f"rod       {'adequate' if rod.adequate else 'not adequate'}: {rod.reason}")
+    choice = resolve_model(case)[1]
+    if choice is not None:
+        lines.append(f"model     {choice}")
     return "\n".join(lines)
 
 

@@ -85,6 +85,27 @@ G(v) = sqrt(v² + v_ε²) − v_ε ln((v_ε + sqrt(v² + v_ε²)) / v),
 ∫ v dt = ∫₀^{v0} sqrt(v² + v_ε²) dv / (μ_f g)
 = [v0 sqrt(v0² + v_ε²) + v_ε² asinh(v0/v_ε)] / (2 μ_f g)
 (:func:`regularized_sliding_distance`; v0²/(2 μ_f g) for Coulomb).
+
+4. Anticlastic bending of a strip (the rod's section law)
+--------------------------------------------------------
+A plate strip of width b, thickness h, plate rigidity D = E h³/(12(1 − ν²)),
+bent to a uniform curvature κ along its length, takes a cross-section shape
+w(y), |y| ≤ b/2, that minimises its energy per unit length
+
+.. math::
+
+    U[w] = \int_{-b/2}^{b/2} \frac D2\big(\kappa^2 + w''^2 + 2\nu\kappa w''\big)
+        + \frac{E h \kappa^2}2 (w - \bar w)^2 \,dy
+
+(plate bending with the transverse curvature w''; the longitudinal fibres at
+height w − w̄ are stretched by κ (w − w̄) and carry no transverse force).
+Stationarity gives D w⁗ + E h κ² (w − w̄) = 0 with free edges
+w'' = −ν κ, w‴ = 0 at y = ±b/2: w is even, a combination of
+cosh βy cos βy and sinh βy sin βy, β⁴ = E h κ²/(4D).
+:func:`anticlastic_energy_ratio` solves that 2 × 2 system and integrates
+U[w] by quadrature, U/(D b κ²/2): the beam's 1 − ν² for a narrow strip,
+the plate's 1 for a wide one. The rod's section law (Ashwell's closed form,
+:mod:`magfem.mechanics.models.rod_section`) is checked against it.
 """
 
 from __future__ import annotations
@@ -99,7 +120,9 @@ from scipy import integrate, optimize
 from magfem.mechanics.contacts.penalty import penalty_penetration
 
 __all__ = [
+    "NARROW_SHELL_DRIVE_DEG",
     "ElasticaSolution",
+    "anticlastic_energy_ratio",
     "bending_modulus",
     "cantilever_eigenvalue",
     "cantilever_frequency",
@@ -335,3 +358,39 @@ def regularized_sliding_distance(
     """
     v0, eps = initial_speed, regularization_velocity
     return (v0 * math.hypot(v0, eps) + eps**2 * math.asinh(v0 / eps)) / (2.0 * friction * gravity)
+
+
+def anticlastic_energy_ratio(beta_b: float, poisson: float, points: int = 20001) -> float:
+    """U/(D b κ²/2) of a strip bent to curvature κ (section 4), at βb (β⁴ = E h κ²/(4D)).
+
+    Units cancel: the strip is taken with b = 1, h = 1, E = 1.
+    """
+    nu, b, h, E = poisson, 1.0, 1.0, 1.0
+    D = E * h**3 / (12.0 * (1.0 - nu**2))
+    beta = beta_b / b
+    kappa = math.sqrt(4.0 * beta**4 * D / (E * h))
+    z = (1.0 + 1.0j) * beta  # cosh(z y) = cosh βy cos βy + i sinh βy sin βy
+
+    def part(k: int, y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        value = z**k * (np.cosh(z * y) if k % 2 == 0 else np.sinh(z * y))
+        return value.real, value.imag
+
+    edge = np.array([b / 2])
+    rows = [[part(k, edge)[0][0], part(k, edge)[1][0]] for k in (2, 3)]
+    A, B = np.linalg.solve(np.array(rows), [-nu * kappa, 0.0])
+    y = np.linspace(-b / 2, b / 2, points)
+    w = A * part(0, y)[0] + B * part(0, y)[1]
+    w2 = A * part(2, y)[0] + B * part(2, y)[1]
+    w = w - integrate.simpson(w, x=y) / b
+    density = 0.5 * D * (kappa**2 + w2**2 + 2 * nu * kappa * w2) + 0.5 * E * h * kappa**2 * w**2
+    return float(integrate.simpson(density, x=y) / (0.5 * D * b * kappa**2))
+
+
+NARROW_SHELL_DRIVE_DEG = (
+    *(0.0, 21.94, 40.11, 53.96, 64.61, 71.82, 77.58, 82.92, 81.23, 82.36, 94.56, 88.19, 80.58),
+    *(78.81, 90.52, 98.78, 111.14, 109.45, 107.41, 85.39, 60.86, 54.27, 55.96, 63.87, 80.96),
+    101.59,
+)
+"""The shell's tip angle (degrees) every millisecond, 0–25 ms, of the narrow arm in the
+default case's drive (:func:`verification.setups.narrow_drive_history`: 0.25 mm wide, P3
+at 0.25 mm, Δt = 0.125 ms), printed by ``python -m benchmarks.rod_vs_shell``."""

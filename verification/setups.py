@@ -94,6 +94,7 @@ def cantilever_case(
     environment: dict[str, Any] | None = None,
     size_across: float | None = None,
     layers: int = 1,
+    mesh_options: dict[str, Any] | None = None,
     root: str = "bonded",
     **tables: Any,
 ) -> Case:
@@ -107,6 +108,7 @@ def cantilever_case(
             bonded root strip as the support.
         size_across: ``mesh.size_across`` (m), None: ``size``.
         layers: ``mesh.layers`` (elements through the thickness).
+        mesh_options: further ``[mesh]`` keys (``rod_bending``).
         root: ``mesh.root``: ``bonded`` (the glued bottom face) or ``rigid``
             (the whole root block, every node of x <= CLAMP_LENGTH).
     """
@@ -129,7 +131,8 @@ def cantilever_case(
                 "clamp_length": CLAMP_LENGTH,
             },
             "mesh": {"size": size, "model": model, "layers": layers, "root": root}
-            | ({} if size_across is None else {"size_across": size_across}),
+            | ({} if size_across is None else {"size_across": size_across})
+            | (mesh_options or {}),
             "material": material,
             "environment": environment or _NO_GRAVITY,
             "output": _NO_OUTPUT,
@@ -202,6 +205,7 @@ def static_tip_angles(
     step: float | None = None,
     size_across: float | None = None,
     layers: int = 1,
+    mesh_options: dict[str, Any] | None = None,
     root: str = "bonded",
 ) -> tuple[Simulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
@@ -210,7 +214,7 @@ def static_tip_angles(
     then evaluated at the field the step did reach (B = t × b_max).
     ``environment`` replaces the default support (the bonded root strip);
     ``step`` is the first quasi-static step (default: the first fraction);
-    ``size_across``, ``layers`` and ``root`` as in :func:`cantilever_case`.
+    ``size_across``, ``layers``, ``root`` and ``mesh_options`` as in :func:`cantilever_case`.
     """
     case = cantilever_case(
         model,
@@ -222,6 +226,7 @@ def static_tip_angles(
         environment=environment,
         size_across=size_across,
         layers=layers,
+        mesh_options=mesh_options,
         root=root,
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
@@ -307,9 +312,10 @@ def free_vibration(
     The push is the velocity of the first mode with Kirchhoff kinematics:
     v_z = A φ₁(x), v_x = −(z − h/2) A φ₁'(x), A = ``amplitude`` (m/s; 1 mm/s
     gives a tip amplitude of ~0.4°, linear); the shell (``surface``) gets
-    v_z on its mid-surface and the director rate θ̇₁ = −A φ₁' instead, with
-    the mode of its rod (clamped at the inset patch edge, :data:`magfem.
-    geometry.robot_mesh.SHELL_CLAMP_INSET`). Generalized-α with ρ∞ = 1 (no
+    v_z on its mid-surface and the director rate θ̇₁ = −A φ₁' instead, the
+    rod v_z on its midline and the rate θ̇₀ = −A φ₁' of its angle about y,
+    both with the mode of a rod clamped at the inset patch edge
+    (:data:`magfem.geometry.robot_mesh.SHELL_CLAMP_INSET`). Generalized-α with ρ∞ = 1 (no
     numerical dissipation) at Δt = T/80 for ``periods`` periods T = 1/``expected``;
     ``loads`` are ``[[loads]]`` tables.
     """
@@ -329,7 +335,7 @@ def free_vibration(
     )
     sim = build_simulation(case, comm)
     vertical = sim.gdim - 1
-    shell = model == "surface"
+    shell = model in ("surface", "rod")
     clamp = CLAMP_LENGTH - (SHELL_CLAMP_INSET * THICKNESS if shell else 0.0)
 
     def push(X: Any) -> Any:
@@ -341,10 +347,11 @@ def free_vibration(
 
     sim.integrator.v0.interpolate(push)
     if shell:  # the director turns with the midline's slope: d_x = sin θ₁ ≈ −w'
+        angle = 1 if model == "surface" else 0  # the rod: d₁ = R_y(θ₀) e_x, w' ≈ −θ₀
 
         def turn(X: Any) -> Any:
-            rate = np.zeros((2, X.shape[1]))
-            rate[1] = -amplitude * first_mode(X[0], clamp)[1]
+            rate = np.zeros((3 if model == "rod" else 2, X.shape[1]))
+            rate[angle] = -amplitude * first_mode(X[0], clamp)[1]
             return rate
 
         sim.integrator.parts[1].v0.interpolate(turn)
@@ -476,3 +483,51 @@ def slide_on_ground(
     deceleration = -np.polyfit(t[sliding], v[sliding], 1)[0] if sliding.sum() > 2 else np.nan
     dx = ufl.Measure("dx", sim.model.robot.mesh, metadata={"quadrature_degree": 4})
     return float(deceleration), mean_value(comm, sim.u[0], dx)
+
+
+# --- the default case's drive on a narrow arm (rod against shell) -----------------------------
+
+NARROW_WIDTH = 0.25e-3  # m, ≈ 3 h: beam-like (Searle's b²/(R h) < 0.3 at the drive's curvatures)
+DRIVE = {  # cases/one_arm_trapezoid.toml's field: 2 mT along −x, 20 Hz square wave
+    "sources": [
+        {
+            "kind": "uniform",
+            "flux_density": 2e-3,
+            "direction": [-1, 0, 0],
+            "waveform": {"kind": "square", "frequency": 20.0},
+        }
+    ]
+}
+HALF_PERIOD = 25e-3  # s, first half period of the drive
+
+
+def narrow_drive_history(
+    comm: MPI.Comm,
+    *,
+    model: str,
+    size: float,
+    degree: int,
+    step: float,
+    end: float = HALF_PERIOD,
+    plane: str = "strain",
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(time in s, tip angle in rad) of the narrow cantilever driven by :data:`DRIVE`.
+
+    The elastica's arm (:func:`cantilever_case`, bonded root, no gravity, no
+    ground), NARROW_WIDTH wide (the shell with one element across), fixed
+    steps ``step`` (s) with ρ∞ = 0.5, P``degree`` elements of ``size`` (m);
+    ``plane`` as in :func:`cantilever_case` (``stress`` for the strip of a narrow arm).
+    """
+    case = cantilever_case(
+        model,
+        size,
+        NARROW_WIDTH,
+        plane,
+        name="narrow_drive",
+        size_across=NARROW_WIDTH if model == "surface" else None,
+        field=DRIVE,
+        time={"end": end, "step": step, "adaptive": False, "rho_inf": 0.5},
+        solver={"degree": degree},
+    )
+    history = build_simulation(case, comm).run(progress=False).history
+    return history["time"], history["angle_arm"]

@@ -139,10 +139,14 @@ class RobotSpec:
         return None if width is None else float(width)
 
 
-MODELS = ("solid", "strip", "surface")
+MODELS = ("solid", "strip", "surface", "rod", "auto")
 """``solid``: 3D extruded membrane; ``strip``: 2D side view (x, z) of a
 uniform-width arm (plane stress/strain); ``surface``: 2D mid-surface of the
-outline (in 3D space, at z = thickness/2)."""
+outline (in 3D space, at z = thickness/2); ``rod``: the arms' midlines (1D in
+3D, at z = thickness/2); ``auto``: chosen for the case (:mod:`magfem.accuracy`)."""
+
+ROD_BENDING = ("anticlastic", "beam", "plate")
+"""Out-of-plane bending law of the rod's section (:mod:`magfem.mechanics.models.rod_section`)."""
 
 
 ROOTS = ("bonded", "rigid")
@@ -172,16 +176,29 @@ class MeshSpec:
     less 0.41 thicknesses at its free edges, the measured compliance of the
     bonded root (docs/verification.md). ``rigid`` holds the whole patch
     through the thickness up to its edge: the textbook clamp of beam theory.
+
+    The ``rod`` model meshes the arms' midlines with elements of ``size``
+    along them; ``rod_bending`` chooses its section law, and ``root`` holds
+    it like the shell: ``bonded`` less 0.41 thicknesses inside the patch's
+    free edges, ``rigid`` at the edge (docs/mechanics.md, "Rod"). ``auto``
+    picks the model for the case (the rod where it is adequate, else the
+    shell; ``magfem check`` says which and why).
     """
 
     size: float = quantity(unit="m", gt=0, doc="in-plane element size")
-    model: str = option("solid", choices=MODELS, doc="solid, strip or surface")
-    layers: int = integer(1, ge=1, le=64, doc="elements through the thickness")
+    model: str = option("solid", choices=MODELS, doc="solid, strip, surface, rod or auto")
+    layers: int = integer(1, ge=1, le=64, doc="elements through the thickness (solid, strip)")
     element: str = option("hex", choices=("hex", "wedge"), doc="hex (quads) or wedge (triangles)")
     order: int = integer(1, ge=1, le=2, doc="geometry order")
     tip_size: float | None = quantity(None, "m", gt=0, doc="element size at the arm tips")
     size_across: float | None = quantity(
         None, "m", gt=0, doc="element size across arms along x (default size)"
+    )
+    rod_bending: str = option(
+        "anticlastic",
+        ROD_BENDING,
+        doc="rod model: bending about the width axis; anticlastic (beam at small curvature, "
+        "plate at large, Ashwell), beam (E I) or plate (E I/(1 - nu^2))",
     )
     root: str = option(
         "bonded",
@@ -193,9 +210,9 @@ class MeshSpec:
     def __post_init__(self) -> None:
         if self.tip_size is not None and self.tip_size > self.size:
             raise CaseError("tip_size", self.tip_size, f"must be <= size ({self.size:g} m)")
-        if self.size_across is not None and self.model == "strip":
+        if self.size_across is not None and self.model in ("strip", "rod"):
             raise CaseError(
-                "size_across", self.size_across, "the strip model has no across direction"
+                "size_across", self.size_across, f"the {self.model} model has no across direction"
             )
         if self.model == "solid" and self.element == "wedge":
             # dolfinx 0.11's gmsh reader raises "Unsupported facet tag for type prism"
@@ -213,9 +230,18 @@ def check_mesh_for_robot(robot: RobotSpec, mesh: MeshSpec) -> None:
     """Cross-table checks between ``[robot]`` and ``[mesh]`` (keys named ``mesh.*``).
 
     Raises:
-        CaseError: ``mesh.size`` or ``size_across`` larger than the smallest feature, or a
-            ``strip`` model for a shape without uniform width.
+        CaseError: ``mesh.size`` or ``size_across`` larger than the smallest feature (the
+            shortest arm for the rod), or a ``strip`` model for a shape without uniform width.
     """
+    if mesh.model == "auto":  # checked again for the model chosen (magfem.accuracy)
+        return
+    if mesh.model == "rod":
+        lengths = [a.length for a in robot.params.outline().arms]
+        if lengths and mesh.size > min(lengths):
+            raise CaseError(
+                "mesh.size", mesh.size, f"must be <= the shortest arm ({min(lengths):g} m) for rods"
+            )
+        return
     feature = robot.min_feature
     # with size_across, size runs along the arms and size_across is what meets the width
     checked = [("mesh.size_across", mesh.size_across)]

@@ -72,7 +72,8 @@ class Problem:
         mapping = dict(zip(self._generic, states, strict=True))
         forms = [ufl.replace(f, mapping) for f in self._internal]
         if model.integrator.dynamic:
-            forms = [f + i for f, i in zip(forms, model.inertia(accelerations), strict=True)]
+            inertia = model.inertia_at(states, rates, accelerations)
+            forms = [f + i for f, i in zip(forms, inertia, strict=True)]
         for load in self.loads:
             work = load.work(model, states, rates)
             if work is not None:

@@ -166,6 +166,17 @@ class Model(ABC):
     def inertia(self, accelerations: Sequence[Any]) -> list[ufl.Form]:
         """Virtual work of the inertia forces, one form per unknown."""
 
+    def inertia_at(
+        self, states: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
+    ) -> list[ufl.Form]:
+        """Virtual work of the inertia forces at a state and its rates, one form per unknown.
+
+        The default is :meth:`inertia` (linear in the accelerations); a model
+        whose inertia depends on its state (the rod's rotary inertia, with its
+        gyroscopic term) overrides it.
+        """
+        return self.inertia(accelerations)
+
     @abstractmethod
     def kinetic_energy(self, rates: Sequence[Any]) -> ufl.Form:
         """Kinetic energy (J; J/m for strips) at the given rates."""
