@@ -31,7 +31,7 @@ from magfem.mechanics.animation import MotionSnapshots
 from magfem.mechanics.checkpoint import Checkpointer, RunControl, check_resumable, read_checkpoint
 from magfem.mechanics.contacts import Contact, GroundContact, SelfContact
 from magfem.mechanics.loads import GravityLoad, Load, MagneticLoad
-from magfem.mechanics.models import MODELS, BodySetup, Model
+from magfem.mechanics.models import MODELS, BodySetup, Model, ModelInputs
 from magfem.mechanics.observers import (
     AppliedField,
     ArmAngles,
@@ -92,7 +92,8 @@ def build_simulation(
     depth = case.robot.uniform_width or 1.0
     body = BodySetup(depth=depth, center=tuple(case.robot.position))  # type: ignore[arg-type]
     model_class = MODELS.get(case.mesh.model, "mesh.model")
-    model = model_class(robot_mesh, case.material, case.solver, case.time, case.environment, body)
+    inputs = ModelInputs(robot_mesh, case.material, case.solver, case.time, case.environment, body)
+    model = model_class(inputs)
     loads: list[Load] = [
         MagneticLoad(field_model, model),
         GravityLoad(case.environment.gravity, model),

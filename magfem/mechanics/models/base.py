@@ -20,17 +20,28 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import basix.ufl
 import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import fem
 
+from magfem.config import CaseError
 from magfem.geometry.robot_mesh import Arm, RobotMesh
 from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
 
-__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model", "sum_work"]
+__all__ = [
+    "MODELS",
+    "BodySetup",
+    "Face",
+    "FluxDensity",
+    "Model",
+    "ModelInputs",
+    "midsurface_sides",
+    "sum_work",
+]
 
 FluxDensity = Callable[[Any], Any]
 """B_a(x) (T) as a UFL 3-vector of a current position x (UFL 3-vector, m)."""
@@ -49,6 +60,27 @@ class BodySetup:
 
     depth: float = 1.0
     center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ModelInputs:
+    """What a model is built from: the robot's mesh and the case tables it reads.
+
+    Attributes:
+        robot: the robot mesh of the model's kind.
+        material: ``[material]``.
+        solver: ``[solver]`` (element degree, quadrature degrees).
+        time: ``[time]`` (scheme, ρ∞, first step).
+        environment: ``[environment]`` (supports).
+        body: what the model needs to know about the robot beyond its mesh.
+    """
+
+    robot: RobotMesh
+    material: MaterialSpec
+    solver: SolverSpec
+    time: TimeSpec
+    environment: EnvironmentSpec
+    body: BodySetup = BodySetup()
 
 
 @dataclass(frozen=True)
@@ -128,16 +160,32 @@ class Model(ABC):
     strain_metrics: list[Any] | None = None
 
     @abstractmethod
-    def __init__(
-        self,
-        robot: RobotMesh,
-        material_spec: MaterialSpec,
-        solver: SolverSpec,
-        time: TimeSpec,
-        environment: EnvironmentSpec,
-        body: BodySetup | None = None,
-    ) -> None:
-        """Build the model's spaces, unknowns, integrator and supports on ``robot``."""
+    def __init__(self, inputs: ModelInputs) -> None:
+        """Build the model's spaces, unknowns, integrator and supports on ``inputs.robot``."""
+
+    def _displacement_and_angles(
+        self, inputs: ModelInputs, angles: int, angle_name: str
+    ) -> tuple[fem.FunctionSpace, fem.FunctionSpace]:
+        """Lagrange displacement (3) and ``angles`` rotation unknowns of the solver's degree.
+
+        For the models of a mid-surface or midline in 3D: sets ``unknowns``,
+        ``tests``, the block ``integrator`` and ``quadrature_degree`` (the
+        solver's, or twice the degree); returns the two spaces.
+        """
+        domain, degree = inputs.robot.mesh, inputs.solver.degree
+        self.quadrature_degree = inputs.solver.quadrature_degree or 2 * degree
+        cell = domain.basix_cell()
+        spaces = [
+            fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(n,)))
+            for n in (3, angles)
+        ]
+        self.unknowns = [
+            fem.Function(spaces[0], name="displacement"),
+            fem.Function(spaces[1], name=angle_name),
+        ]
+        self.tests = [ufl.TestFunction(V) for V in spaces]
+        self.integrator = BlockIntegrator([time_integrator(f, inputs.time) for f in self.unknowns])
+        return spaces[0], spaces[1]
 
     @property
     def u(self) -> fem.Function:
@@ -218,3 +266,29 @@ class Model(ABC):
 
 MODELS: Registry[type[Model]] = Registry("model")
 """``[mesh] model`` name -> Model class (filled by the model modules)."""
+
+
+def time_integrator(unknown: fem.Function, time: TimeSpec) -> TimeIntegrator:
+    """The ``[time]`` scheme's integrator of one unknown (its ρ∞ and first step)."""
+    return TimeIntegrator(unknown, time.scheme, rho_inf=time.rho_inf, dt=time.step)
+
+
+_SIDES = {"bottom": -1.0, "clamp": -1.0, "top": 1.0}
+
+
+def midsurface_sides(names: Sequence[str], model: str) -> list[float]:
+    """Faces (−1 bottom, +1 top) of ``[contact] surfaces`` for a model of the mid-surface.
+
+    Raises:
+        CaseError: a name other than ``all``, ``bottom``, ``clamp`` and ``top``.
+    """
+    unknown = set(names) - {"all", *_SIDES}
+    if unknown:
+        raise CaseError(
+            "contact.surfaces",
+            list(names),
+            f'the {model} model has the faces "all", "bottom" (with "clamp") and "top"',
+        )
+    if "all" in names:
+        return [-1.0, 1.0]
+    return [s for s in (-1.0, 1.0) if any(_SIDES.get(n) == s for n in names)]

@@ -26,16 +26,21 @@ from dolfinx import mesh as dmesh
 
 from magfem import material
 from magfem.config import CaseError
-from magfem.geometry.robot_mesh import RobotMesh
-from magfem.mechanics.integrator import TimeIntegrator
-from magfem.mechanics.models.base import MODELS, BodySetup, Face, FluxDensity, Model
+from magfem.mechanics.models.base import (
+    MODELS,
+    Face,
+    FluxDensity,
+    Model,
+    ModelInputs,
+    time_integrator,
+)
 from magfem.mechanics.models.supports import (
     clamped_entities,
     create_magnetization,
     fixed_point_dofs,
     is_free,
 )
-from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 
 __all__ = ["ContinuumModel", "SolidModel", "StripModel"]
 
@@ -53,53 +58,41 @@ def _project(v3: Any, gdim: int) -> Any:
 class ContinuumModel(Model):
     """Finite-strain continuum (module docstring); ``solid`` or ``strip`` by subclass.
 
-    Args:
-        robot: the robot mesh (gdim 3 solid, gdim 2 strip).
-        material: ``[material]``.
-        solver: ``[solver]`` (degree, quadrature degrees).
-        time: ``[time]`` (scheme, ρ∞, initial step).
-        environment: ``[environment]`` (supports).
-        body: depth of a strip.
+    ``inputs.robot`` is the robot mesh (gdim 3 solid, gdim 2 strip); the
+    ``[solver]`` gives degree and quadrature degrees, ``[time]`` the scheme, ρ∞
+    and first step, ``[environment]`` the supports, ``body`` a strip's depth.
     """
 
     kinematics: material.Kinematics = "solid"
 
-    def __init__(
-        self,
-        robot: RobotMesh,
-        material_spec: MaterialSpec,
-        solver: SolverSpec,
-        time: TimeSpec,
-        environment: EnvironmentSpec,
-        body: BodySetup | None = None,
-    ):
-        self.kinematics = self._kinematics(material_spec)
-        body = body or BodySetup()
+    def __init__(self, inputs: ModelInputs):
+        robot = inputs.robot
+        self.kinematics = self._kinematics(inputs.material)
         domain = robot.mesh
         self.robot = robot
         self.gdim = gdim = domain.geometry.dim
-        degree = solver.degree
-        self.quadrature_degree = q = solver.quadrature_degree or 2 * degree
+        degree = inputs.solver.degree
+        self.quadrature_degree = q = inputs.solver.quadrature_degree or 2 * degree
         V = fem.functionspace(domain, ("Lagrange", degree, (gdim,)))
         u = fem.Function(V, name="displacement")
         self.unknowns = [u]
         self.tests = [ufl.TestFunction(V)]
-        self.integrator = TimeIntegrator(u, time.scheme, rho_inf=time.rho_inf, dt=time.step)
-        self.mu = fem.Constant(domain, material_spec.shear_modulus)
-        self.K = fem.Constant(domain, material_spec.bulk)
-        self.mass_density = self.rho = fem.Constant(domain, material_spec.density)
-        self.magnetization = create_magnetization(material_spec, robot, gdim)
+        self.integrator = time_integrator(u, inputs.time)
+        self.mu = fem.Constant(domain, inputs.material.shear_modulus)
+        self.K = fem.Constant(domain, inputs.material.bulk)
+        self.mass_density = self.rho = fem.Constant(domain, inputs.material.density)
+        self.magnetization = create_magnetization(inputs.material, robot, gdim)
         self.X = ufl.SpatialCoordinate(domain)
         self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
-        q_vol = solver.volumetric_quadrature_degree
+        q_vol = inputs.solver.volumetric_quadrature_degree
         q_vol = 2 * (degree - 1) if q_vol is None else q_vol
         self.dx_vol = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q_vol})
         self.ds = ufl.Measure(
             "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
         )
         self.face_offset = 0.0
-        self.depth = body.depth if gdim == 2 else 1.0
-        self.bcs = self._supports(environment, V)
+        self.depth = inputs.body.depth if gdim == 2 else 1.0
+        self.bcs = self._supports(inputs.environment, V)
         self.displacement_bcs = list(self.bcs)
         self.free_body = is_free(self.bcs, domain.comm)
 

@@ -59,17 +59,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-import basix.ufl
 import numpy as np
 import ufl
 from dolfinx import fem
 
 from magfem import material
-from magfem.config import CaseError
-from magfem.geometry.robot_mesh import RobotMesh
 from magfem.geometry.rod_mesh import HUB_STIFFENING
-from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
-from magfem.mechanics.models.base import MODELS, BodySetup, Face, FluxDensity, Model
+from magfem.mechanics.models.base import (
+    MODELS,
+    Face,
+    FluxDensity,
+    Model,
+    ModelInputs,
+    midsurface_sides,
+)
 from magfem.mechanics.models.rod_section import (
     SHEAR_CORRECTION,
     bending_energy,
@@ -81,7 +84,7 @@ from magfem.mechanics.models.supports import (
     fixed_point_dofs,
     is_free,
 )
-from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
+from magfem.mechanics.spec import EnvironmentSpec
 
 __all__ = ["RodKinematics", "RodModel", "WeightedMeasure", "rate_matrix", "rotation"]
 
@@ -152,50 +155,32 @@ class RodKinematics:
 class RodModel(Model):
     """The rod of the module docstring on the robot's midline mesh.
 
-    Args:
-        robot: the rod mesh (tdim 1, gdim 3, at z = t/2; ``robot.rod`` its branches).
-        material_spec: ``[material]``. solver: ``[solver]`` (degree, quadrature).
-        time: ``[time]``. environment: ``[environment]`` (supports).
-        body: unused (the rod's frames come from its branches).
+    ``inputs.robot`` is the rod mesh (tdim 1, gdim 3, at z = t/2; ``robot.rod``
+    its branches); ``inputs.body`` is unused (the frames come from the branches).
 
     The out-of-plane bending law is the mesh's (``robot.rod.bending``).
     """
 
     kinematics = "rod"
 
-    def __init__(
-        self,
-        robot: RobotMesh,
-        material_spec: MaterialSpec,
-        solver: SolverSpec,
-        time: TimeSpec,
-        environment: EnvironmentSpec,
-        body: BodySetup | None = None,
-    ):
+    def __init__(self, inputs: ModelInputs):
+        robot = inputs.robot
         if robot.rod is None:
             raise ValueError("RodModel needs a rod mesh (mesh.model = 'rod')")
         domain = robot.mesh
         self.robot = robot
         self.gdim = 3
         self.bending = robot.rod.bending
-        degree = solver.degree
-        self.quadrature_degree = q = solver.quadrature_degree or 2 * degree
-        cell = domain.basix_cell()
-        Vu = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(3,)))
-        Vt = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(3,)))
-        u = fem.Function(Vu, name="displacement")
-        theta = fem.Function(Vt, name="rotation_angles")
-        self.unknowns = [u, theta]
-        self.tests = [ufl.TestFunction(Vu), ufl.TestFunction(Vt)]
-        self.integrator = BlockIntegrator(
-            [TimeIntegrator(f, time.scheme, rho_inf=time.rho_inf, dt=time.step) for f in (u, theta)]
-        )
+        degree = inputs.solver.degree
+        Vu, Vt = self._displacement_and_angles(inputs, 3, "rotation_angles")
+        u, theta = self.unknowns
+        q = self.quadrature_degree
         t = robot.thickness
-        mu, bulk = material_spec.shear_modulus, material_spec.bulk
+        mu, bulk = inputs.material.shear_modulus, inputs.material.bulk
         self.poisson = material.poisson_ratio(mu, bulk)
         self.young = fem.Constant(domain, material.youngs_modulus(mu, bulk))
         self.mu = fem.Constant(domain, mu)
-        self.rho = fem.Constant(domain, material_spec.density)
+        self.rho = fem.Constant(domain, inputs.material.density)
         self.frame, self.width, self.stiffening = self._section_fields(degree)
         self.area = self.width * t
         self.mass_density = self.rho * self.area
@@ -203,7 +188,7 @@ class RodModel(Model):
         self.rotary = self.rho * ufl.as_vector(
             [(b * t**3 + t * b**3) / 12.0, b * t**3 / 12.0, t * b**3 / 12.0]
         )
-        self.magnetization = create_magnetization(material_spec, robot, 3)
+        self.magnetization = create_magnetization(inputs.material, robot, 3)
         self.X = ufl.SpatialCoordinate(domain)
         self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
         q_red = 2 * (degree - 1)
@@ -211,7 +196,7 @@ class RodModel(Model):
         self.face_measure = WeightedMeasure(self.dx, self.width)
         self.face_offset = 0.5 * t  # the mesh is the midline
         self.depth = 1.0
-        self.displacement_bcs, angle_bcs = self._supports(environment, Vu, Vt)
+        self.displacement_bcs, angle_bcs = self._supports(inputs.environment, Vu, Vt)
         self.bcs = self.displacement_bcs + angle_bcs
         self.free_body = is_free(self.displacement_bcs, domain.comm)
         self.strain_metrics = self._strain_metrics(RodKinematics(u, theta, self.frame))
@@ -357,7 +342,7 @@ class RodModel(Model):
         w_u, w_t = self.tests
         measure = self.face_measure
         out = []
-        for side in _sides(surfaces):
+        for side in midsurface_sides(surfaces, "rod"):
             h = side * 0.5 * self.thickness
 
             def work(t: Any, h: float = h) -> list[Any]:
@@ -373,20 +358,3 @@ class RodModel(Model):
                 )
             )
         return out
-
-
-_SIDES = {"bottom": -1.0, "clamp": -1.0, "top": 1.0}
-
-
-def _sides(names: Sequence[str]) -> list[float]:
-    """Faces (−1 bottom, +1 top) of ``[contact] surfaces``."""
-    unknown = set(names) - {"all", *_SIDES}
-    if unknown:
-        raise CaseError(
-            "contact.surfaces",
-            list(names),
-            'the rod model has the faces "all", "bottom" (with "clamp") and "top"',
-        )
-    if "all" in names:
-        return [-1.0, 1.0]
-    return [s for s in (-1.0, 1.0) if any(_SIDES.get(n) == s for n in names)]

@@ -62,23 +62,27 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-import basix.ufl
 import numpy as np
 import ufl
 from dolfinx import fem
 
 from magfem import material
-from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh
-from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
-from magfem.mechanics.models.base import MODELS, BodySetup, Face, FluxDensity, Model
+from magfem.mechanics.models.base import (
+    MODELS,
+    Face,
+    FluxDensity,
+    Model,
+    ModelInputs,
+    midsurface_sides,
+)
 from magfem.mechanics.models.supports import (
     clamped_entities,
     create_magnetization,
     fixed_point_dofs,
     is_free,
 )
-from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
+from magfem.mechanics.spec import EnvironmentSpec
 
 __all__ = [
     "SHEAR_CORRECTION",
@@ -202,77 +206,37 @@ def _clamp_entities(env: EnvironmentSpec, robot: RobotMesh) -> list[tuple[int, A
     return out
 
 
-_SIDES = {"bottom": -1.0, "clamp": -1.0, "top": 1.0}
-
-
-def _sides(names: Sequence[str]) -> list[float]:
-    """Faces (−1 bottom, +1 top) of ``[contact] surfaces``."""
-    unknown = set(names) - {"all", *_SIDES}
-    if unknown:
-        raise CaseError(
-            "contact.surfaces",
-            list(names),
-            'the shell model has the faces "all", "bottom" (with "clamp") and "top"',
-        )
-    if "all" in names:
-        return [-1.0, 1.0]
-    return [s for s in (-1.0, 1.0) if any(_SIDES.get(n) == s for n in names)]
-
-
 @MODELS.register("surface")
 class ShellModel(Model):
     """The shell of the module docstring on the robot's mid-surface mesh.
 
-    Args:
-        robot: the surface mesh (tdim 2, gdim 3, at z = t/2).
-        material_spec: ``[material]``.
-        solver: ``[solver]`` (degree, quadrature degree).
-        time: ``[time]`` (scheme, ρ∞, initial step).
-        environment: ``[environment]`` (supports).
-        body: the robot's centre (bending frame of radial robots).
+    ``inputs.robot`` is the surface mesh (tdim 2, gdim 3, at z = t/2);
+    ``body.center`` is the robot's centre (bending frame of radial robots).
     """
 
     kinematics = "shell"
 
-    def __init__(
-        self,
-        robot: RobotMesh,
-        material_spec: MaterialSpec,
-        solver: SolverSpec,
-        time: TimeSpec,
-        environment: EnvironmentSpec,
-        body: BodySetup | None = None,
-    ):
-        body = body or BodySetup()
+    def __init__(self, inputs: ModelInputs):
+        robot = inputs.robot
         domain = robot.mesh
         self.robot = robot
         self.gdim = 3
-        degree = solver.degree
-        self.quadrature_degree = q = solver.quadrature_degree or 2 * degree
-        cell = domain.basix_cell()
-        Vu = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(3,)))
-        Vt = fem.functionspace(domain, basix.ufl.element("Lagrange", cell, degree, shape=(2,)))
-        u = fem.Function(Vu, name="displacement")
-        theta = fem.Function(Vt, name="director_angles")
-        self.unknowns = [u, theta]
-        self.tests = [ufl.TestFunction(Vu), ufl.TestFunction(Vt)]
-        parts = [
-            TimeIntegrator(f, time.scheme, rho_inf=time.rho_inf, dt=time.step) for f in (u, theta)
-        ]
-        self.integrator = BlockIntegrator(parts)
+        Vu, Vt = self._displacement_and_angles(inputs, 2, "director_angles")
+        u, theta = self.unknowns
+        q = self.quadrature_degree
         t = robot.thickness
-        self.poisson = material.poisson_ratio(material_spec.shear_modulus, material_spec.bulk)
-        self.mu = fem.Constant(domain, material_spec.shear_modulus)
-        self.rho = fem.Constant(domain, material_spec.density)
+        self.poisson = material.poisson_ratio(inputs.material.shear_modulus, inputs.material.bulk)
+        self.mu = fem.Constant(domain, inputs.material.shear_modulus)
+        self.rho = fem.Constant(domain, inputs.material.density)
         self.mass_density = self.rho * t
         self.rotary_inertia = self.rho * t**3 / 12.0
-        self.magnetization = create_magnetization(material_spec, robot, 3)
-        self.frame = _frame_angle(robot, body.center)
+        self.magnetization = create_magnetization(inputs.material, robot, 3)
+        self.frame = _frame_angle(robot, inputs.body.center)
         self.X = ufl.SpatialCoordinate(domain)
         self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
         self.face_offset = 0.5 * t  # the mesh is the mid-surface
         self.depth = 1.0
-        self.displacement_bcs, angle_bcs = self._supports(environment, Vu, Vt)
+        self.displacement_bcs, angle_bcs = self._supports(inputs.environment, Vu, Vt)
         self.bcs = self.displacement_bcs + angle_bcs
         self.free_body = is_free(self.displacement_bcs, domain.comm)
         kin = ShellKinematics(u, theta, self.frame)
@@ -330,7 +294,7 @@ class ShellModel(Model):
         w_u, w_t = self.tests
         dx = self.dx
         out = []
-        for s in _sides(surfaces):
+        for s in midsurface_sides(surfaces, "shell"):
             h = s * 0.5 * self.thickness
             lever = h * Jd  # ∂x/∂θ: the face point's virtual displacement is δu + h Jd δθ
 
