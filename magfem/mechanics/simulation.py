@@ -69,6 +69,15 @@ class SimulationResult:
     timings: dict[str, float] = field(default_factory=dict)
 
 
+def body_size(model: Any) -> float:
+    """Diagonal of the bounding box of the reference mesh (m; collective)."""
+    x = model.robot.mesh.geometry.x
+    comm = model.robot.mesh.comm
+    lo = comm.allreduce(np.min(x, axis=0, initial=np.inf), op=MPI.MIN)
+    hi = comm.allreduce(np.max(x, axis=0, initial=-np.inf), op=MPI.MAX)
+    return float(np.linalg.norm(hi - lo))
+
+
 def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArray[np.float64]:
     """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
     found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
@@ -151,6 +160,7 @@ class Simulation:
             time,
             functools.partial(switching_instants, [*problem.loads, *problem.contacts]),
             self.events.say,
+            length=body_size(model),
         )
 
     @property
@@ -270,6 +280,23 @@ class Simulation:
 
         ``settling``: a load-continuation increment at t₀ (loads as they are, no retry).
         """
+        report = self._attempt(dt, settling=settling)
+        if report.converged:
+            self._accept()
+        else:
+            self.integrator.restore()
+        return report
+
+    def _accept(self) -> None:
+        """Accept the solved step: the integrator advances, contacts act on the new state."""
+        integ = self.integrator
+        integ.advance()
+        if integ.dynamic:
+            for contact in self.problem.contacts:
+                contact.after_step()
+
+    def _attempt(self, dt: float, *, settling: bool = False) -> NewtonReport:
+        """Solve the step of length dt from t_n; the caller accepts it or restores u_n."""
         integ = self.integrator
         t_stage = integ.begin(dt)
         if not settling:
@@ -289,13 +316,6 @@ class Simulation:
                 report.linear_iterations + retry.linear_iterations,
                 retry.residual_norm,
             )
-        if report.converged:
-            integ.advance()
-            if integ.dynamic:
-                for contact in self.problem.contacts:
-                    contact.after_step()
-        else:
-            integ.restore()
         return report
 
     def step(self, t: float) -> tuple[float, NewtonReport, int]:
@@ -306,18 +326,27 @@ class Simulation:
         Raises:
             SimulationError: the step cannot be cut any further.
         """
-        control = self.controller
+        control, integ = self.controller, self.integrator
         dt, on_break = control.next_step(t)
-        cuts = 0
+        cuts, error = 0, None
         while True:
-            report = self._solve(dt)
+            report = self._attempt(dt)
             if report.converged:
-                break
+                error = integ.local_error() if control.controls_error else None
+                retry = control.judge(t, dt, error, cuts)
+                if retry is None:
+                    break
+            else:
+                retry = control.cut(t, dt, cuts + 1, report)
+            integ.restore()
             cuts += 1
-            dt, on_break = control.cut(t, dt, cuts, report), False
+            dt, on_break = retry, False
+        self._accept()
         t_new = control.land(t, dt, on_break)
-        self.integrator.time = t_new
-        control.accepted(t_new, report, cuts)
+        integ.time = t_new
+        if on_break:  # the error estimate and the step-change shift restart at a switch
+            integ.restart_history()
+        control.accepted(t_new, report, cuts, dt, error)
         return t_new, report, cuts
 
     def weight_scale(self) -> float:
