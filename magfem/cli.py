@@ -32,7 +32,7 @@ from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.parallel import rank0_print
 from magfem.pipeline import simulate
 from magfem.report import build_report
-from magfem.sweep import parse_param, run_sweep
+from magfem.sweep import parse_engine_options, parse_param, run_sweep
 
 __all__ = ["main"]
 
@@ -132,6 +132,8 @@ def _cmd_sweep(args: argparse.Namespace, comm: MPI.Comm) -> int:
         ranks=args.np,
         retry_failed=args.retry_failed,
         paired=args.paired,
+        engine=args.engine,
+        engine_options=parse_engine_options(args.engine_options),
         echo=None if args.quiet else print,
     )
     failed = [r["point"] for r in result.records if r.get("status") != "done"]
@@ -216,6 +218,20 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--jobs", type=int, default=1, help="points run at the same time")
     s.add_argument("--np", type=int, default=1, help="MPI ranks per point (mpirun -n)")
     s.add_argument("--out", help="sweep directory (default output/sweeps/<case stem>)")
+    s.add_argument(
+        "--engine",
+        default="local",
+        help="where points run: local processes (default), slurm (a job array through "
+        "submitit), submitit-local (the same jobs as local processes)",
+    )
+    s.add_argument(
+        "--engine-option",
+        dest="engine_options",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a cluster engine's parameter, e.g. partition=short, time=60 (minutes), mem=4GB",
+    )
     s.add_argument("--retry-failed", action="store_true", help="rerun points that failed")
     s.add_argument(
         "--paired",

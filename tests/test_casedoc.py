@@ -9,7 +9,7 @@ import pytest
 
 from magfem.case import Case
 from magfem.casedoc import _quantity, build_reference, main
-from magfem.field.spec import SourceSpec
+from magfem.field.source_spec import SourceSpec
 from magfem.geometry.spec import SHAPES
 from magfem.study import Study
 from magfem.units import parse_quantity

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from magfem.config import CaseError, from_table
-from magfem.field.spec import WaveformSpec
+from magfem.field.source_spec import WaveformSpec
 from magfem.field.waveforms import build_waveform
 
 

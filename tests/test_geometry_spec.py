@@ -94,6 +94,30 @@ def test_bad_robot_names_key(table, key):
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize(
+    ("shape", "keys", "problem"),
+    [
+        ("rectangle", {"clamp_length": "10 mm"}, "must be < length (0.01 m)"),
+        ("bow_tie", {"clamp_length": "10 mm"}, "must be < length (0.01 m)"),
+        ("disk", {"clamp_diameter": "10 mm"}, "must be < diameter (0.01 m)"),
+        ("failure_triangle", {"clamp_length": "8 mm"}, "must be < the type I length (0.008 m)"),
+        ("manta", {"wingspan": "4 mm"}, "must be > body_width (0.004 m)"),
+        ("star", {"arm_length": "2.25 mm"}, "must be > hub_radius + arm_tip_width/2 (0.00225 m)"),
+        ("star", {"clamp_radius": "1.5 mm"}, None),  # equal to the hub radius: allowed
+        ("flower", {"clamp_diameter": "12 mm"}, None),  # the whole centre disk bonded
+        ("manta", {"fin_tip_width": "10 mm"}, None),  # a fin as long as the body at its tip
+    ],
+)
+def test_cross_key_limits_at_the_boundary(shape, keys, problem):
+    """Strict limits refuse the equal value, inclusive ones accept it; the message gives it."""
+    if problem is None:
+        robot(shape, **keys)
+        return
+    with pytest.raises(CaseError) as err:
+        robot(shape, **keys)
+    assert problem in str(err.value)
+
+
 def test_unknown_key_lists_the_keys_of_the_shape():
     with pytest.raises(CaseError) as err:
         robot("triangle", width="1 mm")

@@ -43,8 +43,11 @@ def _undeclared(modules, declared):
 
 
 def test_package_imports_are_runtime_dependencies(repo):
+    """Or an optional extra's (imported where needed: tests/test_architecture.py's OPTIONAL)."""
     project = tomllib.loads((repo / "pyproject.toml").read_text(encoding="utf-8"))["project"]
-    runtime = _declared(project["dependencies"])
+    runtime = _declared(project["dependencies"]) | _declared(
+        project["optional-dependencies"]["cluster"]
+    )
     package = _imports([repo / "magfem"])
     assert _undeclared(package, runtime) == []
 

@@ -27,16 +27,15 @@ from magfem.field.source import (
     SumField,
     UniformField,
 )
-from magfem.field.spec import (
+from magfem.field.source_spec import (
     BlockMagnetSpec,
     CoilPairSpec,
     CoilSpec,
     CylinderMagnetSpec,
-    FieldSpec,
-    MotionSpec,
     SourceSpec,
     UniformSourceSpec,
 )
+from magfem.field.spec import FieldSpec, MotionSpec
 from magfem.field.waveforms import Waveform, build_waveform
 
 __all__ = [
@@ -89,25 +88,14 @@ def closed_form_field(spec: SourceSpec, name: str) -> SourceField:
         if isinstance(spec, CoilPairSpec):
             sign = 1.0 if spec.polarity == "same" else -1.0
             windings = [(-spec.separation / 2, 1.0), (spec.separation / 2, sign)]
-        return CoilField(
-            np.array(spec.center),
-            spec.unit_axis,
-            spec.inner_radius,
-            spec.outer_radius,
-            spec.length,
-            spec.turns,
-            coil_current(spec),
-            windings,
-            name=name,
-        )
+        section = (spec.inner_radius, spec.outer_radius, spec.length, spec.turns)
+        current = coil_current(spec)
+        center = np.array(spec.center)
+        return CoilField(center, spec.unit_axis, *section, current, windings, name=name)
     if isinstance(spec, CylinderMagnetSpec):
+        axis, m = spec.unit_axis, spec.remanence
         return CylinderMagnetField(
-            np.array(spec.center),
-            spec.unit_axis,
-            spec.radius,
-            spec.length,
-            spec.remanence,
-            name=name,
+            np.array(spec.center), axis, spec.radius, spec.length, m, name=name
         )
     if isinstance(spec, BlockMagnetSpec):
         return BlockMagnetField(

@@ -22,7 +22,7 @@ from magfem.field.reaction import AxisFrame
 from magfem.field.source import CoilField, CylinderMagnetField, SourceField, SumField, UniformField
 from magfem.field.spec import SolveSpec
 from magfem.geometry.gmshio import build_mesh
-from magfem.geometry.sources import axisymmetric_builder, solid_builder
+from magfem.geometry.sources import IronSizing, axisymmetric_builder, solid_builder
 
 __all__ = ["build_iron_mesh", "common_axis", "iron_size"]
 
@@ -105,32 +105,17 @@ def build_iron_mesh(
     h_ws = solve.workspace_mesh_size if box is not None else None
     order = 2 if solve.curved else 1
     names = [f"iron_{k + 1}" for k in range(len(parts))]
+    sizing = IronSizing(h_iron, solve.grading, box, h_ws, order)
     if frame is None:
-        builder = solid_builder(
-            [p.body(n) for p, n in zip(parts, names, strict=True)],
-            r_air,
-            center=tuple(c),
-            h_iron=h_iron,
-            grading=solve.grading,
-            workspace=box,
-            h_workspace=h_ws,
-            order=order,
-        )
+        bodies = [p.body(n) for p, n in zip(parts, names, strict=True)]
+        builder = solid_builder(bodies, r_air, center=tuple(c), sizing=sizing)
         data = build_mesh(builder, comm, gdim=3, name="iron")
     else:
         z_c = float((c - frame.origin) @ frame.axis)
         profiles = [
             p.profile(frame.origin, frame.axis, n) for p, n in zip(parts, names, strict=True)
         ]
-        builder = axisymmetric_builder(
-            [q for q in profiles if q is not None],
-            r_air,
-            z_center=z_c,
-            h_iron=h_iron,
-            grading=solve.grading,
-            workspace=box,
-            h_workspace=h_ws,
-            order=order,
-        )
+        kept = [q for q in profiles if q is not None]
+        builder = axisymmetric_builder(kept, r_air, z_center=z_c, sizing=sizing)
         data = build_mesh(builder, comm, gdim=2, name="iron_rz")
     return data, c, r_air, h_iron

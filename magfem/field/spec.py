@@ -48,39 +48,17 @@ from magfem.config import MISSING, CaseError, build_fields, integer, option, qua
 from magfem.field.iron_spec import IronSpec
 from magfem.field.source_spec import (
     BlockMagnetSpec,
-    CoilPairSpec,
     CoilSpec,
     CylinderMagnetSpec,
     SourceSpec,
     UniformSourceSpec,
-    WaveformSpec,
-    coil_centers,
     inside_source,
     inside_winding,
     magnet_sample_points,
-    unit_vector,
 )
 from magfem.units import UnitError, parse_quantity
 
-__all__ = [
-    "MODELS",
-    "BlockMagnetSpec",
-    "CoilPairSpec",
-    "CoilSpec",
-    "CylinderMagnetSpec",
-    "FieldSpec",
-    "IronSpec",
-    "MotionSpec",
-    "SolveSpec",
-    "SourceSpec",
-    "UniformSourceSpec",
-    "WaveformSpec",
-    "coil_centers",
-    "inside_source",
-    "inside_winding",
-    "magnet_sample_points",
-    "unit_vector",
-]
+__all__ = ["MODELS", "FieldSpec", "IronSpec", "MotionSpec", "SolveSpec"]
 
 MODELS = ("auto", "uniform", "taylor1", "taylor2", "nodal", "fe")
 

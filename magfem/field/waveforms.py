@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from magfem.config import CaseError
-from magfem.field.spec import WaveformSpec
+from magfem.field.source_spec import WaveformSpec
 
 __all__ = [
     "DC",

@@ -32,6 +32,7 @@ __all__ = [
     "HalfDisk",
     "IronBody",
     "IronProfile",
+    "IronSizing",
     "Polygon",
     "RuledSolid",
     "axisymmetric_builder",
@@ -149,6 +150,32 @@ def _union(occ: Any, dim: int, tags: list[int]) -> list[int]:
     return [t for d, t in out if d == dim]
 
 
+def _fragment_iron(
+    gmsh: Any, dim: int, container: int, body_tags: list[list[int]], names: Sequence[str]
+) -> list[int]:
+    """Fragment the ``container`` entity with the bodies' pieces and name the groups.
+
+    ``body_tags``: per body, its ``dim``-entity tags. Returns the iron tags
+    (:func:`_name_groups`).
+    """
+    occ = gmsh.model.occ
+    tools = [(dim, t) for tags in body_tags for t in tags]
+    _, mapping = occ.fragment([(dim, container)], tools)
+    occ.synchronize()
+    per_body, k = [], 1
+    for tags in body_tags:
+        per_body.append([pair for m in mapping[k : k + len(tags)] for pair in m])
+        k += len(tags)
+    return _name_groups(gmsh, dim, names, per_body)
+
+
+def _generate(gmsh: Any, dim: int, order: int) -> None:
+    """Mesh in ``dim`` dimensions; elevate to geometric ``order`` (curved) when > 1."""
+    gmsh.model.mesh.generate(dim)
+    if order > 1:
+        gmsh.model.mesh.setOrder(order)
+
+
 def _name_groups(gmsh: Any, dim: int, names: Sequence[str], mapping: list[Any]) -> list[int]:
     """Physical groups after ``occ.fragment``: each body's pieces under its name, the rest air.
 
@@ -168,17 +195,29 @@ def _name_groups(gmsh: Any, dim: int, names: Sequence[str], mapping: list[Any]) 
     return sorted(used)
 
 
-def _size_fields(
-    gmsh: Any,
-    dim: int,
-    iron: list[int],
-    h_iron: float,
-    grading: float,
-    r_air: float,
-    box: np.ndarray | None,
-    h_workspace: float | None,
-) -> None:
+@dataclass(frozen=True)
+class IronSizing:
+    """Element sizes of an iron mesh.
+
+    Attributes:
+        h_iron: element size on the iron surfaces, m.
+        grading: growth of the element size per unit distance from the iron.
+        workspace: optional box (2, dim) [min, max] meshed at most at ``h_workspace``.
+        h_workspace: the size in the workspace box, m.
+        order: geometric order of the elements (1 or 2: curved).
+    """
+
+    h_iron: float
+    grading: float = 0.3
+    workspace: np.ndarray | None = None
+    h_workspace: float | None = None
+    order: int = 1
+
+
+def _size_fields(gmsh: Any, dim: int, iron: list[int], sizing: IronSizing, r_air: float) -> None:
     """Background size: h_iron at the iron + grading × distance; ≤ h_workspace in the box."""
+    h_iron, grading = sizing.h_iron, sizing.grading
+    box, h_workspace = sizing.workspace, sizing.h_workspace
     f = gmsh.model.mesh.field
     boundary = gmsh.model.getBoundary([(dim, t) for t in iron], combined=False, oriented=False)
     dist = f.add("Distance")
@@ -217,11 +256,7 @@ def solid_builder(
     r_air: float,
     *,
     center: Sequence[float],
-    h_iron: float,
-    grading: float = 0.3,
-    workspace: np.ndarray | None = None,
-    h_workspace: float | None = None,
-    order: int = 1,
+    sizing: IronSizing,
 ) -> Callable[[Any], None]:
     """Builder of a ball of radius ``r_air`` (m) about ``center`` containing the iron ``bodies``.
 
@@ -229,10 +264,7 @@ def solid_builder(
         bodies: iron bodies (group ``name`` each), inside the ball.
         r_air: radius of the air ball, m.
         center: its centre (3,), m.
-        h_iron: element size on the iron surfaces, m.
-        grading: growth of the element size per unit distance from the iron.
-        workspace: optional box (2, 3) [min, max] meshed at most at ``h_workspace``.
-        order: geometric order of the elements (1 or 2: curved).
+        sizing: element sizes and order.
     """
     bodies = list(bodies)
 
@@ -240,18 +272,10 @@ def solid_builder(
         occ = gmsh.model.occ
         ball = occ.addSphere(*center, r_air)
         body_tags = [_union(occ, 3, [_add_solid(occ, p) for p in b.parts]) for b in bodies]
-        tools = [(3, t) for tags in body_tags for t in tags]
-        _, mapping = occ.fragment([(3, ball)], tools)
-        occ.synchronize()
-        per_body, k = [], 1
-        for tags in body_tags:
-            per_body.append([pair for m in mapping[k : k + len(tags)] for pair in m])
-            k += len(tags)
-        iron = _name_groups(gmsh, 3, [b.name for b in bodies], per_body)
-        _size_fields(gmsh, 3, iron, h_iron, grading, r_air, workspace, h_workspace)
-        gmsh.model.mesh.generate(3)
-        if order > 1:
-            gmsh.model.mesh.setOrder(order)
+        names = [b.name for b in bodies]
+        iron = _fragment_iron(gmsh, 3, ball, body_tags, names)
+        _size_fields(gmsh, 3, iron, sizing, r_air)
+        _generate(gmsh, 3, sizing.order)
 
     return build
 
@@ -261,16 +285,12 @@ def axisymmetric_builder(
     r_air: float,
     *,
     z_center: float,
-    h_iron: float,
-    grading: float = 0.3,
-    workspace: np.ndarray | None = None,
-    h_workspace: float | None = None,
-    order: int = 1,
+    sizing: IronSizing,
 ) -> Callable[[Any], None]:
     """Builder of the (r, z) half-disk of radius ``r_air`` about (0, ``z_center``), with iron.
 
-    The mesh lies in the plane z = 0 with x = r, y = z (gdim = 2). ``workspace``:
-    optional box [[r_min, z_min], [r_max, z_max]]; other arguments as :func:`solid_builder`.
+    The mesh lies in the plane z = 0 with x = r, y = z (gdim = 2); the sizing's
+    workspace is a box [[r_min, z_min], [r_max, z_max]].
     """
     profiles = list(profiles)
 
@@ -280,17 +300,9 @@ def axisymmetric_builder(
         body_tags = [
             _union(occ, 2, [_add_profile(occ, p, r_air) for p in b.parts]) for b in profiles
         ]
-        tools = [(2, t) for tags in body_tags for t in tags]
-        _, mapping = occ.fragment([(2, air)], tools)
-        occ.synchronize()
-        per_body, k = [], 1
-        for tags in body_tags:
-            per_body.append([pair for m in mapping[k : k + len(tags)] for pair in m])
-            k += len(tags)
-        iron = _name_groups(gmsh, 2, [b.name for b in profiles], per_body)
-        _size_fields(gmsh, 2, iron, h_iron, grading, r_air, workspace, h_workspace)
-        gmsh.model.mesh.generate(2)
-        if order > 1:
-            gmsh.model.mesh.setOrder(order)
+        names = [b.name for b in profiles]
+        iron = _fragment_iron(gmsh, 2, air, body_tags, names)
+        _size_fields(gmsh, 2, iron, sizing, r_air)
+        _generate(gmsh, 2, sizing.order)
 
     return build

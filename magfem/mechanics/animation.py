@@ -156,43 +156,13 @@ def write_animation(
         ``path``, or None when there are fewer than two snapshots.
     """
     pyvista.OFF_SCREEN = True
-    directory = Path(directory)
-    files = sorted(directory.glob("frame_*.npz"))
-    if len(files) < 2 or not (directory / "surface.npz").is_file():
+    loaded = _load_snapshots(Path(directory))
+    if loaded is None:
         return None
-    with np.load(directory / "surface.npz") as data:
-        points = np.asarray(data["points"], dtype=float)
-        faces = np.asarray(data["faces"])
-    frames = []
-    for f in files:
-        with np.load(f) as data:
-            frames.append(
-                (float(data["time"]), np.asarray(data["field"]), np.asarray(data["displacement"]))
-            )
-    reference = pyvista.PolyData(points.copy(), faces)
-    moving = pyvista.PolyData(points.copy(), faces)
-    every = np.vstack([points + d for _, _, d in frames] + [points])
-    lo, hi = every.min(axis=0), every.max(axis=0)
-    pad = 0.05 * float(np.max(hi - lo))
-    bounds = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad, lo[2] - pad, hi[2] + pad)
+    points, faces, frames = loaded
     if view is None:
         view = "xz" if np.all(points[:, 1] == 0) else "iso"
-    plotter: Any = pyvista.Plotter(off_screen=True, window_size=list(window_size))
-    plotter.set_background("white")
-    plotter.add_mesh(reference, color="lightgrey", opacity=0.4)
-    side = view == "xz"  # a thin strip seen edge-on: draw its outline thick
-    plotter.add_mesh(
-        moving,
-        color="tan",
-        show_edges=True,
-        edge_color="saddlebrown" if side else "grey",
-        line_width=3 if side else 1,
-    )
-    if view == "xz":
-        plotter.view_xz()
-    else:
-        plotter.view_isometric()
-    plotter.reset_camera(bounds=bounds)
+    plotter, moving = _stage(points, faces, frames, view, window_size)
     images = []
     for t, b, d in frames:
         moving.points = points + d
@@ -216,6 +186,63 @@ def write_animation(
         optimize=True,
     )
     return path
+
+
+Frame = tuple[float, np.ndarray, np.ndarray]
+"""A snapshot: time (s), applied field (T, 3) and displacement of the surface points (m)."""
+
+
+def _load_snapshots(directory: Path) -> tuple[np.ndarray, np.ndarray, list[Frame]] | None:
+    """Surface points, faces and frames of a snapshot folder (None: fewer than two frames)."""
+    files = sorted(directory.glob("frame_*.npz"))
+    if len(files) < 2 or not (directory / "surface.npz").is_file():
+        return None
+    with np.load(directory / "surface.npz") as data:
+        points = np.asarray(data["points"], dtype=float)
+        faces = np.asarray(data["faces"])
+    frames = []
+    for f in files:
+        with np.load(f) as data:
+            frames.append(
+                (float(data["time"]), np.asarray(data["field"]), np.asarray(data["displacement"]))
+            )
+    return points, faces, frames
+
+
+def _stage(
+    points: np.ndarray,
+    faces: np.ndarray,
+    frames: list[Frame],
+    view: str,
+    window_size: tuple[int, int],
+) -> tuple[Any, Any]:
+    """An off-screen plotter showing the reference surface, with a camera every frame fits in.
+
+    Returns the plotter and the moving surface (its points are set per frame).
+    """
+    reference = pyvista.PolyData(points.copy(), faces)
+    moving = pyvista.PolyData(points.copy(), faces)
+    every = np.vstack([points + d for _, _, d in frames] + [points])
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    pad = 0.05 * float(np.max(hi - lo))
+    bounds = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad, lo[2] - pad, hi[2] + pad)
+    plotter: Any = pyvista.Plotter(off_screen=True, window_size=list(window_size))
+    plotter.set_background("white")
+    plotter.add_mesh(reference, color="lightgrey", opacity=0.4)
+    side = view == "xz"  # a thin strip seen edge-on: draw its outline thick
+    plotter.add_mesh(
+        moving,
+        color="tan",
+        show_edges=True,
+        edge_color="saddlebrown" if side else "grey",
+        line_width=3 if side else 1,
+    )
+    if side:
+        plotter.view_xz()
+    else:
+        plotter.view_isometric()
+    plotter.reset_camera(bounds=bounds)
+    return plotter, moving
 
 
 def remove_snapshots(directory: Path) -> None:

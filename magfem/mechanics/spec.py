@@ -79,6 +79,15 @@ def parse_direction(raw: Any, key: str) -> Direction:
     raise CaseError(key, raw, allowed)
 
 
+def _build_with_direction[T](cls: type[T], table: Mapping[str, Any], where: str) -> T:
+    """``build_fields`` with the ``direction`` key parsed by :func:`parse_direction`."""
+    fixed: dict[str, Any] = {}
+    if "direction" in table:
+        fixed["direction"] = parse_direction(table["direction"], f"{where}.direction")
+    rest = {k: v for k, v in table.items() if k != "direction"}
+    return build_fields(cls, rest, where, **fixed)
+
+
 @dataclass(frozen=True)
 class MagnetRegionSpec:
     """Remanent magnetization of one named cell group, overriding ``[material]``."""
@@ -91,11 +100,7 @@ class MagnetRegionSpec:
 
     @classmethod
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> MagnetRegionSpec:
-        fixed: dict[str, Any] = {}
-        if "direction" in table:
-            fixed["direction"] = parse_direction(table["direction"], f"{where}.direction")
-        rest = {k: v for k, v in table.items() if k != "direction"}
-        return build_fields(cls, rest, where, **fixed)
+        return _build_with_direction(cls, table, where)
 
 
 @dataclass(frozen=True)
@@ -121,11 +126,7 @@ class MaterialSpec:
 
     @classmethod
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> MaterialSpec:
-        fixed: dict[str, Any] = {}
-        if "direction" in table:
-            fixed["direction"] = parse_direction(table["direction"], f"{where}.direction")
-        rest = {k: v for k, v in table.items() if k != "direction"}
-        return build_fields(cls, rest, where, **fixed)
+        return _build_with_direction(cls, table, where)
 
     def __post_init__(self) -> None:
         seen: set[str] = set()

@@ -17,7 +17,13 @@ from typing import ClassVar, TypeVar
 from magfem.config import CaseError
 from magfem.geometry.outline import Outline
 
-__all__ = ["SHAPES", "Shape", "UniformWidthShape", "check_clamp_length", "need", "register"]
+__all__ = [
+    "SHAPES",
+    "ClampedArmShape",
+    "Shape",
+    "UniformWidthShape",
+    "register",
+]
 
 
 class Shape(ABC):
@@ -26,10 +32,15 @@ class Shape(ABC):
     name: ClassVar[str]
     """The ``shape`` value that selects this class (set by :func:`register`)."""
 
+    feature_keys: ClassVar[tuple[str, ...]] = ()
+    """Keys whose smallest value is :attr:`min_feature` (shapes may override the property)."""
+
     @property
-    @abstractmethod
     def min_feature(self) -> float:
         """Smallest in-plane dimension (m) an element must resolve (e.g. the arm width)."""
+        if not self.feature_keys:
+            raise NotImplementedError(f"{type(self).__name__} declares no feature_keys")
+        return min(float(getattr(self, key)) for key in self.feature_keys)
 
     @property
     def uniform_width(self) -> float | None:
@@ -39,6 +50,31 @@ class Shape(ABC):
     @abstractmethod
     def outline(self) -> Outline:
         """The planar outline in the robot's frame (bottom face on z = 0)."""
+
+    def at_most(self, key: str, limit: float, what: str, *, strict: bool = False) -> None:
+        """Raise a CaseError naming ``key`` unless its value is <= ``limit`` (< if ``strict``).
+
+        ``what`` names the limit in the message (e.g. ``"length"``).
+        """
+        value = getattr(self, key)
+        if value > limit or (strict and value == limit):
+            raise CaseError(key, value, f"must be {'<' if strict else '<='} {what} ({limit:g} m)")
+
+    def at_least(self, key: str, limit: float, what: str, *, strict: bool = False) -> None:
+        """Raise a CaseError naming ``key`` unless its value is >= ``limit`` (> if ``strict``)."""
+        value = getattr(self, key)
+        if value < limit or (strict and value == limit):
+            raise CaseError(key, value, f"must be {'>' if strict else '>='} {what} ({limit:g} m)")
+
+
+class ClampedArmShape(Shape):
+    """A shape whose bonded strip ``clamp_length`` (m) must be shorter than its ``length``."""
+
+    length: float
+    clamp_length: float
+
+    def __post_init__(self) -> None:
+        self.at_most("clamp_length", self.length, "length", strict=True)
 
 
 class UniformWidthShape(Shape):
@@ -68,14 +104,3 @@ def register(name: str) -> Callable[[S], S]:
         return cls
 
     return decorate
-
-
-def need(cond: bool, key: str, value: object, problem: str) -> None:
-    """Raise ``CaseError(key, value, problem)`` unless ``cond``."""
-    if not cond:
-        raise CaseError(key, value, problem)
-
-
-def check_clamp_length(clamp_length: float, length: float) -> None:
-    """The bonded root strip must leave part of the arm free."""
-    need(clamp_length < length, "clamp_length", clamp_length, f"must be < length ({length:g} m)")

@@ -6,14 +6,14 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.beam import BeamOutline, two_arms
-from magfem.geometry.shapes.base import Shape, check_clamp_length, register
+from magfem.geometry.shapes.base import ClampedArmShape, register
 
 __all__ = ["BowTieShape"]
 
 
 @register("bow_tie")
 @dataclass(frozen=True)
-class BowTieShape(Shape):
+class BowTieShape(ClampedArmShape):
     """Two trapezoid arms meeting at x = 0 (``middle_width``), ``end_width`` at x = ±length/2.
 
     Cell groups ``arm_left``, ``arm_right``; bonded middle patch
@@ -24,9 +24,6 @@ class BowTieShape(Shape):
     middle_width: float = quantity("1 mm", "m", gt=0, doc="width at x = 0")
     end_width: float = quantity("3 mm", "m", gt=0, doc="width at the arm ends")
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped middle patch; 0 = free")
-
-    def __post_init__(self) -> None:
-        check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.radial import RadialOutline
-from magfem.geometry.shapes.base import Shape, need, register
+from magfem.geometry.shapes.base import Shape, register
 
 __all__ = ["DiskShape"]
 
@@ -24,12 +24,7 @@ class DiskShape(Shape):
     clamp_diameter: float = quantity(0.0, "m", ge=0, doc="bonded central disk; 0 = free")
 
     def __post_init__(self) -> None:
-        need(
-            self.clamp_diameter < self.diameter,
-            "clamp_diameter",
-            self.clamp_diameter,
-            f"must be < diameter ({self.diameter:g} m)",
-        )
+        self.at_most("clamp_diameter", self.diameter, "diameter", strict=True)
 
     @property
     def min_feature(self) -> float:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from magfem.config import option, quantity
 from magfem.geometry.beam import BeamOutline, one_arm
-from magfem.geometry.shapes.base import Shape, need, register
+from magfem.geometry.shapes.base import Shape, register
 
 __all__ = ["FAILURE_TRIANGLES", "FailureTriangleShape"]
 
@@ -30,12 +30,7 @@ class FailureTriangleShape(Shape):
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped root strip; 0 = free")
 
     def __post_init__(self) -> None:
-        need(
-            self.clamp_length < self.length,
-            "clamp_length",
-            self.clamp_length,
-            f"must be < the type {self.type} length ({self.length:g} m)",
-        )
+        self.at_most("clamp_length", self.length, f"the type {self.type} length", strict=True)
 
     @property
     def root_width(self) -> float:

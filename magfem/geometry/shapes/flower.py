@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from magfem.config import integer, quantity
 from magfem.geometry.radial import RadialOutline, min_hub_radius
-from magfem.geometry.shapes.base import Shape, need, register
+from magfem.geometry.shapes.base import Shape, register
 
 __all__ = ["FlowerShape"]
 
@@ -29,28 +29,11 @@ class FlowerShape(Shape):
     clamp_diameter: float = quantity("6 mm", "m", ge=0, doc="bonded centre disk; 0 = free")
 
     def __post_init__(self) -> None:
-        rc = 0.5 * self.centre_diameter
-        rmin = min_hub_radius(self.petals, self.petal_width)
-        need(
-            rc >= rmin,
-            "centre_diameter",
-            self.centre_diameter,
-            f"must be >= {2 * rmin:g} m so that {self.petals} petals of this width "
-            "meet inside the centre",
-        )
-        need(
-            0.5 * self.diameter - 0.5 * self.petal_width > rc,
-            "diameter",
-            self.diameter,
-            "must exceed centre_diameter + petal_width "
-            f"({self.centre_diameter + self.petal_width:g} m)",
-        )
-        need(
-            self.clamp_diameter <= self.centre_diameter,
-            "clamp_diameter",
-            self.clamp_diameter,
-            f"must be <= centre_diameter ({self.centre_diameter:g} m)",
-        )
+        meet = f"the diameter in which {self.petals} petals of this width meet"
+        self.at_least("centre_diameter", 2 * min_hub_radius(self.petals, self.petal_width), meet)
+        reach = self.centre_diameter + self.petal_width
+        self.at_least("diameter", reach, "centre_diameter + petal_width", strict=True)
+        self.at_most("clamp_diameter", self.centre_diameter, "centre_diameter")
 
     @property
     def min_feature(self) -> float:

@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from magfem.config import quantity
 from magfem.geometry.outline import Outline, PlanarArm, add_polygon
-from magfem.geometry.shapes.base import Shape, need, register
+from magfem.geometry.shapes.base import Shape, register
 
 __all__ = ["MantaOutline", "MantaShape"]
 
@@ -32,18 +32,8 @@ class MantaShape(Shape):
     fin_tip_width: float = quantity("2 mm", "m", gt=0, doc="fin chord at the wing tip")
 
     def __post_init__(self) -> None:
-        need(
-            self.wingspan > self.body_width,
-            "wingspan",
-            self.wingspan,
-            f"must exceed body_width ({self.body_width:g} m)",
-        )
-        need(
-            self.fin_tip_width <= self.body_length,
-            "fin_tip_width",
-            self.fin_tip_width,
-            f"must be <= body_length ({self.body_length:g} m)",
-        )
+        self.at_least("wingspan", self.body_width, "body_width", strict=True)
+        self.at_most("fin_tip_width", self.body_length, "body_length")
 
     @property
     def min_feature(self) -> float:

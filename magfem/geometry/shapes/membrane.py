@@ -23,9 +23,7 @@ class MembraneShape(UniformWidthShape):
     length: float = quantity("10 mm", "m", gt=0, doc="length along x")
     width: float = quantity("5 mm", "m", gt=0, doc="width along y")
 
-    @property
-    def min_feature(self) -> float:
-        return min(self.length, self.width)
+    feature_keys = ("length", "width")
 
     def outline(self) -> BeamOutline:
         body = BeamArm("body", -0.5 * self.length, 1, self.length, self.width, self.width, 0.0)

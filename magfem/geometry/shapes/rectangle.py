@@ -6,14 +6,14 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.beam import BeamOutline, one_arm
-from magfem.geometry.shapes.base import UniformWidthShape, check_clamp_length, register
+from magfem.geometry.shapes.base import ClampedArmShape, UniformWidthShape, register
 
 __all__ = ["RectangleShape"]
 
 
 @register("rectangle")
 @dataclass(frozen=True)
-class RectangleShape(UniformWidthShape):
+class RectangleShape(UniformWidthShape, ClampedArmShape):
     """One rectangular arm, ``length`` along x, ``width`` along y, root strip clamped.
 
     Cell group ``arm``, tip face ``tip`` (x = length); uniform width, so it
@@ -26,12 +26,7 @@ class RectangleShape(UniformWidthShape):
         "1 mm", "m", ge=0, doc="bottom root strip bonded to the substrate; 0 = free"
     )
 
-    def __post_init__(self) -> None:
-        check_clamp_length(self.clamp_length, self.length)
-
-    @property
-    def min_feature(self) -> float:
-        return min(self.length, self.width)
+    feature_keys = ("length", "width")
 
     def outline(self) -> BeamOutline:
         return one_arm(self.length, self.width, self.width, self.clamp_length)

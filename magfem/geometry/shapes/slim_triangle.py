@@ -22,9 +22,7 @@ class SlimTriangleShape(Shape):
     length: float = quantity("10 mm", "m", gt=0, doc="base-to-apex length along x")
     root_width: float = quantity("2 mm", "m", gt=0, doc="base width on x = 0")
 
-    @property
-    def min_feature(self) -> float:
-        return min(self.length, self.root_width)
+    feature_keys = ("length", "root_width")
 
     def outline(self) -> BeamOutline:
         return one_arm(self.length, self.root_width, 0.0, 0.0)

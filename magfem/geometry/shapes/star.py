@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from magfem.config import integer, quantity
 from magfem.geometry.radial import RadialOutline, min_hub_radius
-from magfem.geometry.shapes.base import Shape, need, register
+from magfem.geometry.shapes.base import Shape, register
 
 __all__ = ["StarShape"]
 
@@ -33,25 +33,12 @@ class StarShape(Shape):
 
     def __post_init__(self) -> None:
         rmin = min_hub_radius(self.arms, max(self.arm_width, self.tip_width))
-        need(
-            self.hub_radius >= rmin,
-            "hub_radius",
-            self.hub_radius,
-            f"must be >= {rmin:g} m so that {self.arms} arms of this width meet inside the hub",
+        self.at_least(
+            "hub_radius", rmin, f"the radius in which {self.arms} arms of this width meet"
         )
-        need(
-            self.arm_length > self.hub_radius + 0.5 * self.tip_width,
-            "arm_length",
-            self.arm_length,
-            f"must exceed hub_radius + arm_tip_width/2 "
-            f"({self.hub_radius + 0.5 * self.tip_width:g} m)",
-        )
-        need(
-            self.clamp_radius <= self.hub_radius,
-            "clamp_radius",
-            self.clamp_radius,
-            f"must be <= hub_radius ({self.hub_radius:g} m)",
-        )
+        reach = self.hub_radius + 0.5 * self.tip_width
+        self.at_least("arm_length", reach, "hub_radius + arm_tip_width/2", strict=True)
+        self.at_most("clamp_radius", self.hub_radius, "hub_radius")
 
     @property
     def tip_width(self) -> float:

@@ -6,14 +6,14 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.beam import BeamOutline, one_arm
-from magfem.geometry.shapes.base import Shape, check_clamp_length, register
+from magfem.geometry.shapes.base import ClampedArmShape, register
 
 __all__ = ["TrapezoidShape"]
 
 
 @register("trapezoid")
 @dataclass(frozen=True)
-class TrapezoidShape(Shape):
+class TrapezoidShape(ClampedArmShape):
     """One trapezoidal arm: width ``root_width`` at x = 0, ``tip_width`` at x = length.
 
     Cell group ``arm``, tip face ``tip``. A tip wider than the root is allowed.
@@ -24,12 +24,7 @@ class TrapezoidShape(Shape):
     tip_width: float = quantity("2 mm", "m", gt=0, doc="width at the tip (x = length)")
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped root strip; 0 = free")
 
-    def __post_init__(self) -> None:
-        check_clamp_length(self.clamp_length, self.length)
-
-    @property
-    def min_feature(self) -> float:
-        return min(self.length, self.root_width, self.tip_width)
+    feature_keys = ("length", "root_width", "tip_width")
 
     def outline(self) -> BeamOutline:
         return one_arm(self.length, self.root_width, self.tip_width, self.clamp_length)

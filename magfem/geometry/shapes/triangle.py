@@ -6,14 +6,14 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.beam import BeamOutline, one_arm
-from magfem.geometry.shapes.base import Shape, check_clamp_length, register
+from magfem.geometry.shapes.base import ClampedArmShape, register
 
 __all__ = ["TriangleShape"]
 
 
 @register("triangle")
 @dataclass(frozen=True)
-class TriangleShape(Shape):
+class TriangleShape(ClampedArmShape):
     """One triangular arm: base ``root_width`` on x = 0, apex at (length, 0).
 
     Cell group ``arm``; its tip group ``tip`` is the side faces of the last
@@ -24,13 +24,8 @@ class TriangleShape(Shape):
     root_width: float = quantity("4 mm", "m", gt=0, doc="base width on x = 0")
     clamp_length: float = quantity("1 mm", "m", ge=0, doc="clamped root strip; 0 = free")
 
-    def __post_init__(self) -> None:
-        check_clamp_length(self.clamp_length, self.length)
-
-    @property
-    def min_feature(self) -> float:
-        # the apex has no width: the base width is what an element must resolve
-        return min(self.length, self.root_width)
+    # the apex has no width: the base width is what an element must resolve
+    feature_keys = ("length", "root_width")
 
     def outline(self) -> BeamOutline:
         return one_arm(self.length, self.root_width, 0.0, self.clamp_length)

@@ -6,14 +6,14 @@ from dataclasses import dataclass
 
 from magfem.config import quantity
 from magfem.geometry.beam import BeamOutline, two_arms
-from magfem.geometry.shapes.base import UniformWidthShape, check_clamp_length, register
+from magfem.geometry.shapes.base import ClampedArmShape, UniformWidthShape, register
 
 __all__ = ["TwoArmRectangleShape"]
 
 
 @register("two_arm_rectangle")
 @dataclass(frozen=True)
-class TwoArmRectangleShape(UniformWidthShape):
+class TwoArmRectangleShape(UniformWidthShape, ClampedArmShape):
     """Strip of total ``length`` along x, arms ``arm_left`` (x < 0) and ``arm_right`` (x > 0).
 
     The bottom patch |x| < clamp_length/2 is bonded to the substrate (flat:
@@ -24,9 +24,6 @@ class TwoArmRectangleShape(UniformWidthShape):
     length: float = quantity("6 mm", "m", gt=0, doc="total tip-to-tip length along x")
     width: float = quantity("0.8 mm", "m", gt=0, doc="width along y")
     clamp_length: float = quantity("0.8 mm", "m", ge=0, doc="clamped middle patch; 0 = free")
-
-    def __post_init__(self) -> None:
-        check_clamp_length(self.clamp_length, self.length)
 
     @property
     def min_feature(self) -> float:

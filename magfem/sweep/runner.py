@@ -1,0 +1,249 @@
+"""The sweep driver: runs the points missing from a sweep directory as ``magfem run`` processes."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from magfem.case import load_case
+from magfem.config import CaseError
+from magfem.sweep.engines import (
+    CLUSTER_ENGINES,
+    ENGINES,
+    PointJob,
+    record_point,
+    run_on_cluster,
+)
+from magfem.sweep.points import SYNTAX, Point, build_points, fingerprint, parse_param
+from magfem.sweep.summary import plot_sweep, write_summary
+
+__all__ = ["SweepResult", "run_sweep"]
+
+
+@dataclass
+class SweepResult:
+    """What a sweep did: every point's record, and which ran in this invocation."""
+
+    records: list[dict[str, Any]]
+    ran: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    paths: dict[str, Path] = field(default_factory=dict)
+
+
+def _read_record(point_dir: Path) -> dict[str, Any] | None:
+    path = point_dir / "point.json"
+    if not path.is_file():
+        return None
+    try:
+        record: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+    return record
+
+
+def _mpirun() -> str:
+    here = Path(sys.executable).parent / "mpirun"
+    found = str(here) if here.is_file() else shutil.which("mpirun")
+    if found is None:
+        raise CaseError("--np", "mpirun", "no mpirun next to python or on PATH")
+    return found
+
+
+class _Log:
+    def __init__(self, path: Path, echo: Callable[[str], None] | None):
+        self.path = path
+        self.echo = echo
+        self.lock = threading.Lock()
+
+    def __call__(self, msg: str) -> None:
+        line = f"{time.strftime('%Y-%m-%dT%H:%M:%S')} {msg}"
+        with self.lock:
+            with self.path.open("a", encoding="utf-8") as fh:
+                fh.write(line + "\n")
+            if self.echo is not None:
+                self.echo(msg)
+
+
+def _point_job(
+    case_path: Path, out: Path, base_overrides: Sequence[str], fprint: str, ranks: int, pt: Point
+) -> PointJob:
+    """The ``magfem run`` of one point (``mpirun -n ranks`` in front when ranks > 1)."""
+    pdir = out / "points" / pt.ident
+    prefix = [_mpirun(), "-n", str(ranks)] if ranks > 1 else []
+    cmd = [*prefix, sys.executable, "-m", "magfem", "run", str(case_path), "--out", str(pdir)]
+    cmd.append("-q")
+    for item in [*base_overrides, *pt.overrides()]:
+        cmd += ["--set", item]
+    return PointJob(pt.ident, pt.params, cmd, str(pdir), fprint, ranks)
+
+
+class _LocalRunner:
+    """Runs point jobs as local processes, ``jobs`` at a time, keeping their handles."""
+
+    def __init__(self, log: _Log) -> None:
+        self.log = log
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self.lock = threading.Lock()
+        self.ran: list[str] = []
+
+    def run_all(self, todo: Sequence[PointJob], jobs: int) -> list[str]:
+        """Run ``todo``; the ids of the points recorded. Ctrl-C stops the points running
+        (our own child processes, by handle) and re-raises."""
+        pool = ThreadPoolExecutor(max_workers=jobs)
+        try:
+            for fut in [pool.submit(self.run, job) for job in todo]:
+                fut.result()
+        except KeyboardInterrupt:
+            pool.shutdown(wait=False, cancel_futures=True)
+            with self.lock:
+                for proc in self.procs.values():
+                    proc.terminate()
+            pool.shutdown(wait=True)
+            raise
+        pool.shutdown(wait=True)
+        return self.ran
+
+    def run(self, job: PointJob) -> None:
+        """One point; a point killed by a signal is left unfinished (no ``point.json``)."""
+        pdir = Path(job.point_dir)
+        pdir.mkdir(parents=True, exist_ok=True)
+        self.log(f"start {job.ident} {json.dumps(job.params)}")
+        t0 = time.perf_counter()
+        with (pdir / "run.log").open("wb") as fh:
+            proc = subprocess.Popen(job.command, stdout=fh, stderr=subprocess.STDOUT)
+            with self.lock:
+                self.procs[job.ident] = proc
+            rc = proc.wait()
+            with self.lock:
+                self.procs.pop(job.ident, None)
+        wall = time.perf_counter() - t0
+        status = record_point(job, rc, wall)
+        if status is None:
+            self.log(f"killed {job.ident} (exit status {rc})")
+            return
+        self.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
+        with self.lock:
+            self.ran.append(job.ident)
+
+
+def run_sweep(
+    case_path: str | Path,
+    params: Sequence[str],
+    outdir: str | Path,
+    *,
+    base_overrides: Sequence[str] = (),
+    jobs: int = 1,
+    ranks: int = 1,
+    retry_failed: bool = False,
+    paired: bool = False,
+    engine: str = "local",
+    engine_options: Mapping[str, Any] | None = None,
+    echo: Callable[[str], None] | None = print,
+) -> SweepResult:
+    """Run (or resume) a sweep; serial driver, each point a separate process.
+
+    Args:
+        case_path: base case file.
+        params: ``--param`` texts (``NAME=VALUES``).
+        outdir: sweep directory (points/, sweep.log, summary.csv, sweep.png).
+        base_overrides: ``--set`` items applied to every point.
+        jobs: points run at the same time. ranks: MPI ranks per point (mpirun -n).
+        retry_failed: rerun points recorded as failed.
+        paired: pair the ``--param`` lists element-wise (equal lengths) instead of
+            taking their Cartesian product, e.g. a frequency with its two-period end time.
+        engine: where the points run (:data:`magfem.sweep.engines.ENGINES`).
+        engine_options: parameters of a cluster engine (e.g. SLURM ``partition``).
+        echo: progress printer (None: silent).
+
+    Raises:
+        CaseError: bad ``--param`` syntax or engine, or a point whose case does not
+            validate (checked for every point before anything runs).
+    """
+    case_path, out = Path(case_path), Path(outdir)
+    for key, value in (("--jobs", jobs), ("--np", ranks)):
+        if value < 1:
+            raise CaseError(key, value, "must be >= 1")
+    if engine not in ENGINES:
+        raise CaseError("--engine", engine, "must be one of " + ", ".join(ENGINES))
+    if engine_options and engine not in CLUSTER_ENGINES:
+        raise CaseError("--engine-option", ", ".join(engine_options), "needs a cluster engine")
+    if not params:
+        raise CaseError("--param", "(none)", "give at least one --param " + SYNTAX)
+    load_case(case_path, base_overrides)  # file, syntax and base overrides
+    parsed = [parse_param(p) for p in params]
+    fprint = fingerprint(case_path, base_overrides)
+    points = build_points(parsed, fprint, paired=paired)
+    for pt in points:
+        load_case(case_path, [*base_overrides, *pt.overrides()])
+    (out / "points").mkdir(parents=True, exist_ok=True)
+    log = _Log(out / "sweep.log", echo)
+    result = SweepResult(records=[])
+    todo = [
+        _point_job(case_path, out, base_overrides, fprint, ranks, pt)
+        for pt in _unfinished(points, out, fprint, retry_failed, result.skipped)
+    ]
+    log(
+        f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
+        f"{len(todo)} to run, jobs={jobs}, ranks={ranks}, engine={engine}"
+    )
+    if engine == "local":
+        result.ran = _LocalRunner(log).run_all(todo, jobs)
+    else:
+        folder = out / "submitit"
+        options = dict(engine_options or {})
+        result.ran = run_on_cluster(
+            engine, todo, folder, jobs=jobs, ranks=ranks, options=options, log=log
+        )
+    _summarise(result, points, [n for n, _ in parsed], out, paired, log)
+    return result
+
+
+def _unfinished(
+    points: Sequence[Point], out: Path, fprint: str, retry_failed: bool, skipped: list[str]
+) -> list[Point]:
+    """The points without a valid record (appending the others' ids to ``skipped``)."""
+    todo = []
+    for pt in points:
+        rec = _read_record(out / "points" / pt.ident)
+        done = (
+            rec is not None
+            and rec.get("params") == pt.params
+            and rec.get("fingerprint") == fprint
+            and (rec.get("status") == "done" or not retry_failed)
+        )
+        if done:
+            skipped.append(pt.ident)
+        else:
+            todo.append(pt)
+    return todo
+
+
+def _summarise(
+    result: SweepResult,
+    points: Sequence[Point],
+    names: list[str],
+    out: Path,
+    paired: bool,
+    log: Callable[[str], None],
+) -> None:
+    """Gather every point's record into ``result``; write summary.csv and sweep.png."""
+    for pt in points:
+        rec = _read_record(out / "points" / pt.ident)
+        result.records.append(
+            {"point": pt.ident, "index": pt.index, "params": pt.params}
+            | ({"status": "missing"} if rec is None else rec)
+        )
+    result.paths["csv"] = write_summary(result.records, names, out)
+    png = plot_sweep(result.records, names, out / "sweep.png", paired=paired)
+    if png is not None:
+        result.paths["png"] = png
+    log(f"wrote {result.paths['csv']}" + (f" and {png}" if png else ""))

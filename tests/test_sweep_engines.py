@@ -1,0 +1,122 @@
+"""``magfem sweep --engine``: points as cluster jobs (submitit's local executor), resume across
+engines, engine options.
+
+The reference for the cluster engine is the local engine: a point is the
+same ``magfem run`` process either way, so a point run as a job must give the
+history the local engine gives, to the last digit.
+"""
+
+from __future__ import annotations
+
+import csv
+import shutil
+
+import pytest
+import tomli_w
+
+from magfem.config import CaseError
+from magfem.sweep import parse_engine_options, run_sweep
+from magfem.sweep.engines import PointJob, record_point
+
+pytest.importorskip("submitit")  # the "cluster" extra; part of the test extra
+
+# A 4 mm strip arm, 4 x 0.5 mm P2 quads, 2 ms in 8 steps: ~3 s per point (warm form cache).
+CASE = {
+    "name": "engine_probe",
+    "robot": {
+        "shape": "rectangle",
+        "thickness": "100 um",
+        "length": "4 mm",
+        "width": "1 mm",
+        "clamp_length": "0.5 mm",
+    },
+    "mesh": {"size": "0.5 mm", "model": "strip"},
+    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
+    "field": {
+        "sources": [
+            {
+                "kind": "uniform",
+                "flux_density": "4 mT",
+                "direction": [-1, 0, 0],
+                "waveform": {"kind": "square", "frequency": "100 Hz"},
+            }
+        ]
+    },
+    "time": {"end": "2 ms", "step": "0.25 ms"},
+    "environment": {"gravity": [0, 0, 0]},
+    "output": {"vtx_every": 0, "plot": False},
+}
+PARAM = "field.sources.0.waveform.frequency"
+
+
+def _history(point_dir):
+    with (point_dir / "history.csv").open(newline="") as fh:
+        return list(csv.reader(fh))
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_cluster_jobs_resume_a_local_sweep_and_match_its_runs(tmp_path):
+    case = tmp_path / "engine_probe.toml"
+    case.write_text(tomli_w.dumps(CASE))
+    out = tmp_path / "sweep"
+    local = run_sweep(case, [f"{PARAM}=100Hz"], out, echo=None)
+    assert [r["status"] for r in local.records] == ["done"]
+    (first,) = local.records
+    jobs = run_sweep(case, [f"{PARAM}=100Hz,200Hz"], out, engine="submitit-local", echo=None)
+    # the point the local engine finished is reused, the other one ran as a job
+    assert jobs.skipped == [first["point"]] and len(jobs.ran) == 1
+    assert [r["status"] for r in jobs.records] == ["done", "done"]
+    assert list((out / "submitit").iterdir()), "submitit wrote no job files"
+    # the job's run is the local engine's: rerun the new point locally into a copy
+    (job_point,) = jobs.ran
+    again = run_sweep(case, [f"{PARAM}=200Hz"], tmp_path / "again", echo=None)
+    (local_point,) = again.ran
+    # same parameters and case: the same id but for the index in the sweep
+    assert local_point.split("_")[1] == job_point.split("_")[1]
+    assert _history(out / "points" / job_point) == _history(
+        tmp_path / "again" / "points" / local_point
+    )
+    # physics, as in the local sweep's test: 2 ms of a square drive lifts the arm
+    assert all(r["summary"]["max_angle_arm"] > 0.01 for r in jobs.records)
+
+
+def test_a_point_stopped_by_a_signal_is_not_recorded(tmp_path):
+    job = PointJob("p0000_x", {"a": "1"}, ["true"], str(tmp_path), "f", 1)
+    assert record_point(job, -9, 1.0) is None
+    assert record_point(job, 130, 1.0) is None
+    assert not (tmp_path / "point.json").exists()
+    assert record_point(job, 3, 1.0) == "failed"
+    assert (tmp_path / "point.json").is_file()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "key"),
+    [
+        ({"engine": "pbs"}, "--engine"),
+        ({"engine_options": {"partition": "short"}}, "--engine-option"),  # local engine
+        ({"engine": "submitit-local", "engine_options": {"partition": "x"}}, "--engine-option"),
+        pytest.param(
+            {"engine": "slurm"},
+            "--engine",
+            marks=pytest.mark.skipif(shutil.which("srun") is not None, reason="a SLURM machine"),
+        ),
+    ],
+)
+def test_bad_engine_settings_are_case_errors(tmp_path, kwargs, key):
+    case = tmp_path / "engine_probe.toml"
+    case.write_text(tomli_w.dumps(CASE))
+    with pytest.raises(CaseError) as err:
+        run_sweep(case, [f"{PARAM}=100Hz"], tmp_path / "s", echo=None, **kwargs)
+    assert err.value.key == key
+
+
+def test_engine_options_parse_numbers_and_reject_bad_items():
+    assert parse_engine_options(["partition=short", "time=60", "mem_gb = 1.5"]) == {
+        "partition": "short",
+        "time": 60,
+        "mem_gb": 1.5,
+    }
+    with pytest.raises(CaseError) as err:
+        parse_engine_options(["partition"])
+    assert err.value.key == "--engine-option"
