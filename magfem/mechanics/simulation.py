@@ -73,8 +73,9 @@ def body_size(model: Any) -> float:
     """Diagonal of the bounding box of the reference mesh (m; collective)."""
     x = model.robot.mesh.geometry.x
     comm = model.robot.mesh.comm
-    lo = comm.allreduce(np.min(x, axis=0, initial=np.inf), op=MPI.MIN)
-    hi = comm.allreduce(np.max(x, axis=0, initial=-np.inf), op=MPI.MAX)
+    lo, hi = np.empty(x.shape[1]), np.empty(x.shape[1])
+    comm.Allreduce(np.min(x, axis=0, initial=np.inf), lo, op=MPI.MIN)
+    comm.Allreduce(np.max(x, axis=0, initial=-np.inf), hi, op=MPI.MAX)
     return float(np.linalg.norm(hi - lo))
 
 
