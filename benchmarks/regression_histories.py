@@ -70,10 +70,25 @@ def _read(path: Path) -> dict[str, np.ndarray]:
     return read_history(path)[0]  # headers with units (time [s]) or without
 
 
+def _interpolated(ref: dict[str, np.ndarray], new: dict[str, np.ndarray]) -> tuple[float, str]:
+    """Largest |Δ| (deg) of the angle columns, ``new`` interpolated onto ``ref``'s times."""
+    worst, where = 0.0, "no angle column"
+    for key, a in ref.items():
+        if not key.startswith("angle") or key not in new:
+            continue
+        b = np.interp(ref["time"], new["time"], new[key])
+        ok = np.isfinite(a) & np.isfinite(b)
+        diff = float(np.degrees(np.max(np.abs(a[ok] - b[ok])))) if ok.any() else 0.0
+        if diff >= worst:
+            worst, where = diff, f"max |d{key}| (deg, interpolated)"
+    return worst, where
+
+
 def _compare(ref: dict[str, np.ndarray], new: dict[str, np.ndarray]) -> tuple[float, str]:
     """(worst relative difference, column) over the columns of ``ref``."""
     if len(ref["time"]) != len(new["time"]):
-        return np.inf, f"steps {len(ref['time'])} -> {len(new['time'])}"
+        angle, key = _interpolated(ref, new)
+        return np.inf, f"steps {len(ref['time'])} -> {len(new['time'])}; {key} {angle:.3g}"
     worst, where = 0.0, ""
     for key, a in ref.items():
         b = new.get(key)

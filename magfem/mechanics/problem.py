@@ -11,8 +11,11 @@ with q the model's unknowns (:class:`~magfem.mechanics.models.base.Model`).
 that are then replaced by the integrator's stage values, so the
 integrator's weights multiply the inertia and the internal force
 consistently (a derivative taken through the stage value itself would carry
-a spurious factor 1 − αf). In dynamic runs the contacts' UFL terms act at
-the end of the step (x_{n+1}, v_{n+1}), elsewhere at the stage point.
+a spurious factor 1 − αf). At ρ∞ = 1 the integrator asks for δΠ averaged
+over the step (``potential_points``, the average vector field that makes
+the scheme conserve energy, :mod:`magfem.mechanics.integrator`): the same
+forms summed over a few states between u_n and u_{n+1}. In dynamic runs the
+contacts' UFL terms act at the end of the step (x_{n+1}, v_{n+1}), elsewhere at the stage point.
 """
 
 from __future__ import annotations
@@ -65,12 +68,25 @@ class Problem:
         return self.model.residual_form(forms)
 
     def _balance(
-        self, states: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
+        self,
+        states: Sequence[Any],
+        rates: Sequence[Any],
+        accelerations: Sequence[Any],
+        potential: Sequence[tuple[float, Sequence[Any]]] | None = None,
     ) -> list[Any]:
-        """Inertia + δΠ − non-conservative load work, per unknown (no contacts)."""
+        """Inertia + δΠ − non-conservative load work, per unknown (no contacts).
+
+        ``potential``: (weight, state) points where δΠ is evaluated and summed
+        (the integrator's average vector field); default δΠ at ``states``.
+        """
         model = self.model
-        mapping = dict(zip(self._generic, states, strict=True))
-        forms = [ufl.replace(f, mapping) for f in self._internal]
+        forms: list[Any] = []
+        for weight, point in potential or [(1.0, states)]:
+            mapping = dict(zip(self._generic, point, strict=True))
+            terms = [ufl.replace(f, mapping) for f in self._internal]
+            if weight != 1.0:
+                terms = [weight * f for f in terms]
+            forms = [a + b for a, b in zip(forms, terms, strict=True)] if forms else terms
         if model.integrator.dynamic:
             inertia = model.inertia_at(states, rates, accelerations)
             forms = [f + i for f, i in zip(forms, inertia, strict=True)]
@@ -114,7 +130,8 @@ def build_problem(model: Model, loads: Sequence[Load], contacts: Sequence[Contac
     ]
     problem = Problem(model, list(loads), list(contacts), None, {}, internal, generic)
     states, rates, accelerations = model.stage()
-    forms = problem._balance(states, rates, accelerations)
+    averaged = model.integrator.potential_points() if model.integrator.dynamic else None
+    forms = problem._balance(states, rates, accelerations, averaged)
     if model.integrator.dynamic:
         forms = problem._minus_contacts(forms, *model.end_of_step())
     else:

@@ -29,11 +29,8 @@ and double after an easy one.
 from __future__ import annotations
 
 import functools
-import logging
 import time as _time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -53,59 +50,21 @@ from magfem.mechanics.checkpoint import (
 from magfem.mechanics.observers import Observer, history_summary
 from magfem.mechanics.output import Writer
 from magfem.mechanics.problem import Problem
+from magfem.mechanics.run_record import EventLog, SimulationResult
 from magfem.mechanics.solver import NewtonReport, NewtonSolver, load_norm, solve_linear
 from magfem.mechanics.spec import SolverSpec, TimeSpec
-from magfem.mechanics.stepping import SimulationError, StepController
+from magfem.mechanics.stepping import (
+    SimulationError,
+    StepController,
+    body_size,
+    switching_instants,
+)
 from magfem.parallel import progress as progress_bar
 
 __all__ = ["STANDARD_GRAVITY", "Simulation", "SimulationError", "SimulationResult"]
 
 STANDARD_GRAVITY = 9.80665
 """g₀ (m/s²), for the force scale of ``[solver] force_tolerance``."""
-
-
-@dataclass
-class SimulationResult:
-    """What a run produced (identical on every rank).
-
-    Attributes:
-        history: column name -> (steps + 1,) array (SI units; angles in rad).
-        summary: scalar results (step counts, max angles over the first
-            one/two periods in rad, largest strain, energy/power density, ...).
-        paths: name -> written file (csv, vtx, png, gif), possibly empty.
-        log: step-control events, one line each.
-        timings: wall time split (s) on rank 0: mesh_and_field, compile,
-            residual, jacobian, linear_solve, total.
-    """
-
-    history: dict[str, npt.NDArray[np.float64]]
-    summary: dict[str, float]
-    paths: dict[str, Path] = field(default_factory=dict)
-    log: list[str] = field(default_factory=list)
-    timings: dict[str, float] = field(default_factory=dict)
-
-
-def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArray[np.float64]:
-    """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
-    found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
-    return np.unique(np.concatenate(found)) if found else np.zeros(0)
-
-
-LOG = logging.getLogger("magfem.run")
-
-
-class EventLog:
-    """Lines about a run's events, kept, and logged (shown on rank 0, above the progress bar)."""
-
-    def __init__(self, comm: MPI.Comm):
-        self.comm = comm
-        self.lines: list[str] = []
-        self.bar: Any = None
-
-    def say(self, msg: str) -> None:
-        """Record ``msg`` and log it."""
-        self.lines.append(msg)
-        LOG.info(msg)
 
 
 class Simulation:
@@ -167,6 +126,7 @@ class Simulation:
             time,
             functools.partial(switching_instants, [*problem.loads, *problem.contacts]),
             self.events.say,
+            length=body_size(model),
         )
 
     @property
@@ -295,6 +255,23 @@ class Simulation:
 
         ``settling``: a load-continuation increment at t₀ (loads as they are, no retry).
         """
+        report = self._attempt(dt, settling=settling)
+        if report.converged:
+            self._accept()
+        else:
+            self.integrator.restore()
+        return report
+
+    def _accept(self) -> None:
+        """Accept the solved step: the integrator advances, contacts act on the new state."""
+        integ = self.integrator
+        integ.advance()
+        if integ.dynamic:
+            for contact in self.problem.contacts:
+                contact.after_step()
+
+    def _attempt(self, dt: float, *, settling: bool = False) -> NewtonReport:
+        """Solve the step of length dt from t_n; the caller accepts it or restores u_n."""
         integ = self.integrator
         t_stage = integ.begin(dt)
         if not settling:
@@ -314,13 +291,6 @@ class Simulation:
                 report.linear_iterations + retry.linear_iterations,
                 retry.residual_norm,
             )
-        if report.converged:
-            integ.advance()
-            if integ.dynamic:
-                for contact in self.problem.contacts:
-                    contact.after_step()
-        else:
-            integ.restore()
         return report
 
     def step(self, t: float) -> tuple[float, NewtonReport, int]:
@@ -331,18 +301,27 @@ class Simulation:
         Raises:
             SimulationError: the step cannot be cut any further.
         """
-        control = self.controller
+        control, integ = self.controller, self.integrator
         dt, on_break = control.next_step(t)
-        cuts = 0
+        cuts, error = 0, None
         while True:
-            report = self._solve(dt)
+            report = self._attempt(dt)
             if report.converged:
-                break
+                error = integ.local_error() if control.controls_error else None
+                retry = control.judge(t, dt, error, cuts)
+                if retry is None:
+                    break
+            else:
+                retry = control.cut(t, dt, cuts + 1, report)
+            integ.restore()
             cuts += 1
-            dt, on_break = control.cut(t, dt, cuts, report), False
+            dt, on_break = retry, False
+        self._accept()
         t_new = control.land(t, dt, on_break)
-        self.integrator.time = t_new
-        control.accepted(t_new, report, cuts)
+        integ.time = t_new
+        if on_break:  # the error estimate and the step-change shift restart at a switch
+            integ.restart_history()
+        control.accepted(t_new, report, cuts, dt, error)
         return t_new, report, cuts
 
     def weight_scale(self) -> float:

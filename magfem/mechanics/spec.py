@@ -148,23 +148,32 @@ class MaterialSpec:
 
 
 SCHEMES = ("generalized_alpha", "hht", "newmark", "quasi_static")
+MAX_STEP_RATIO = 10.0
+"""Default ``max_step`` / ``step`` under error control (``tolerance``)."""
 
 
 @dataclass(frozen=True)
 class TimeSpec:
     """``[time]``: time span, integrator and adaptive stepping.
 
-    Schemes: ``generalized_alpha`` (Chung–Hulbert, spectral radius ``rho_inf``),
-    ``hht`` (Hilber–Hughes–Taylor, ``rho_inf`` in [0.5, 1]), ``newmark``
-    (average acceleration, β = 1/4, γ = 1/2), ``quasi_static`` (no inertia;
-    the load follows the field's time history).
+    Schemes: ``generalized_alpha`` (Chung–Hulbert, spectral radius ``rho_inf``;
+    at ``rho_inf = 1`` energy conserving), ``hht`` (Hilber–Hughes–Taylor,
+    ``rho_inf`` in [0.5, 1]), ``newmark`` (average acceleration, β = 1/4,
+    γ = 1/2), ``quasi_static`` (no inertia; the load follows the field's time
+    history).
+
+    Steps: from Newton's cost (cut after failures and slow solves, grown
+    after easy ones), or, with ``tolerance``, from the integrator's local
+    error estimate (:mod:`magfem.mechanics.stepping`).
     """
 
     end: float = quantity(0.1, "s", gt=0.0, doc="end time")
     start: float = quantity(0.0, "s", ge=0.0, doc="start time")
     step: float = quantity(2.5e-4, "s", gt=0.0, doc="initial (nominal) time step")
     min_step: float | None = quantity(None, "s", gt=0.0, doc="smallest step (default step/1024)")
-    max_step: float | None = quantity(None, "s", gt=0.0, doc="largest step (default step)")
+    max_step: float | None = quantity(
+        None, "s", gt=0.0, doc="largest step (default step; with tolerance 10 × step)"
+    )
     scheme: str = option("generalized_alpha", SCHEMES)
     rho_inf: float = quantity(0.5, "", ge=0.0, le=1.0, doc="spectral radius at infinite frequency")
     adaptive: bool = True
@@ -175,6 +184,13 @@ class TimeSpec:
         10, ge=1, doc="Newton iterations at or above which the next step is cut"
     )
     max_cuts: int = integer(12, ge=0, doc="consecutive step cuts before giving up")
+    tolerance: float | None = quantity(
+        None,
+        "",
+        gt=0.0,
+        lt=1.0,
+        doc="error control: local displacement error per step / body size (default off)",
+    )
 
     def __post_init__(self) -> None:
         if self.end <= self.start:
@@ -185,6 +201,12 @@ class TimeSpec:
             raise CaseError("max_step", self.max_step, f"must be >= step ({self.step:g} s)")
         if self.scheme == "hht" and self.rho_inf < 0.5:
             raise CaseError("rho_inf", self.rho_inf, "HHT-α needs rho_inf in [0.5, 1]")
+        if self.tolerance is not None and self.scheme == "quasi_static":
+            raise CaseError(
+                "tolerance", self.tolerance, "needs a dynamic scheme (quasi_static has no error)"
+            )
+        if self.tolerance is not None and not self.adaptive:
+            raise CaseError("tolerance", self.tolerance, "needs adaptive = true")
         if self.easy_iterations >= self.slow_iterations:
             raise CaseError(
                 "easy_iterations",
@@ -200,7 +222,9 @@ class TimeSpec:
     @property
     def largest_step(self) -> float:
         """Upper bound of the adaptive step (s)."""
-        return self.max_step if self.max_step is not None else self.step
+        if self.max_step is not None:
+            return self.max_step
+        return self.step if self.tolerance is None else MAX_STEP_RATIO * self.step
 
 
 @dataclass(frozen=True)

@@ -11,20 +11,44 @@
 * A slow solve (>= ``slow_iterations``) cuts the next step; two easy solves
   in a row (<= ``easy_iterations``) grow it by ``grow_factor`` up to
   ``max_step``. Every change is reported through ``say``.
+* With ``tolerance`` (error control) the easy-solve rule gives way to the
+  integrator's local error estimate e (m,
+  :meth:`~magfem.mechanics.integrator.TimeIntegrator.local_error`) against
+  tolerance × L, L the size of the body: η = e/(tolerance L). A step with
+  η > 1 is rejected and retried with Δt·max(0.2, 0.8 η^(−1/3)) (the local
+  error is O(Δt³)); an accepted one sets the next step to
+  Δt·min(grow_factor, max(0.2, 0.8 η^(−1/3))) within [min_step, max_step].
+  A step shortened to land on a switch never grows the nominal step; at
+  ``min_step`` a step is accepted whatever its error (and said so). The
+  estimate needs three accepted states since the start or the last switch:
+  until then the step keeps its length.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from mpi4py import MPI
 
 from magfem.mechanics.solver import NewtonReport
 from magfem.mechanics.spec import TimeSpec
 
-__all__ = ["SimulationError", "StepController", "stop_reason"]
+__all__ = [
+    "SimulationError",
+    "StepController",
+    "body_size",
+    "error_factor",
+    "stop_reason",
+    "switching_instants",
+]
+
+SAFETY = 0.8
+"""Fraction of the step that the error estimate allows which the controller takes."""
+SHRINK_LIMIT = 0.2
+"""Smallest step multiplier after one error estimate."""
 
 
 class SimulationError(RuntimeError):
@@ -33,6 +57,13 @@ class SimulationError(RuntimeError):
 
 Breakpoints = Callable[[float, float], npt.NDArray[np.float64]]
 """(t0, t1) -> switching instants in (t0, t1] (s), sorted."""
+
+
+def error_factor(eta: float, grow: float) -> float:
+    """Step multiplier for the scaled local error η (O(Δt³)), within [0.2, grow]."""
+    if eta <= 0.0:
+        return grow
+    return min(grow, max(SHRINK_LIMIT, SAFETY * eta ** (-1.0 / 3.0)))
 
 
 def stop_reason(spec: TimeSpec, cuts: int, next_dt: float) -> str:
@@ -53,21 +84,78 @@ class StepController:
         spec: the ``[time]`` table.
         breakpoints: switching instants of the loads.
         say: reports a step-control event (one line).
+        length: L, the size of the body (m) that ``tolerance`` is relative to.
 
     Attributes:
         dt: the nominal length of the next step (s).
-        steps, cuts, newton_iterations: totals over the run.
+        steps, cuts, rejections, newton_iterations: totals over the run
+            (``cuts`` counts the rejections too).
+        last_error: η of the last estimate (None before the first).
     """
 
-    def __init__(self, spec: TimeSpec, breakpoints: Breakpoints, say: Callable[[str], None]):
+    def __init__(
+        self,
+        spec: TimeSpec,
+        breakpoints: Breakpoints,
+        say: Callable[[str], None],
+        *,
+        length: float = 1.0,
+    ):
         self.spec = spec
         self.breakpoints = breakpoints
         self.say = say
+        self.length = length
         self.dt = spec.step
         self.steps = 0
         self.cuts = 0
+        self.rejections = 0
         self.newton_iterations = 0
+        self.last_error: float | None = None
         self._easy = 0
+
+    @property
+    def controls_error(self) -> bool:
+        """Steps are chosen from the local error estimate (``tolerance`` set, adaptive)."""
+        return self.spec.tolerance is not None and self.spec.adaptive
+
+    def judge(self, t: float, dt: float, error: float | None, cuts: int) -> float | None:
+        """Accept a converged step of length dt from t (None) or return the step to retry.
+
+        ``error``: the local error estimate (m) or None (no estimate: accepted);
+        ``cuts``: cuts of this step so far.
+
+        Raises:
+            SimulationError: the step may not be cut again (``stop_reason``).
+        """
+        if error is None or not self.controls_error:
+            return None
+        eta = error / (self._tolerance * self.length)
+        self.last_error = eta
+        if eta <= 1.0:
+            return None
+        new_dt = max(dt * error_factor(eta, 1.0), self.spec.smallest_step)
+        if new_dt >= dt:  # already at min_step: the tolerance is out of reach
+            self.say(f"t = {t:.6g} s: local error {eta:.3g} × tolerance at time.min_step: accepted")
+            return None
+        self.cuts += 1
+        self.rejections += 1
+        why = stop_reason(self.spec, cuts + 1, new_dt)
+        if why:
+            raise SimulationError(
+                f"t = {t:.6g} s: local error {eta:.3g} × tolerance at dt = {dt:.3g} s "
+                f"after {cuts} cut(s): {why}"
+            )
+        self.say(
+            f"t = {t:.6g} s: local error {eta:.3g} × tolerance; step cut {dt:.3g} -> {new_dt:.3g} s"
+        )
+        self.dt = new_dt
+        return new_dt
+
+    @property
+    def _tolerance(self) -> float:
+        if self.spec.tolerance is None:
+            raise RuntimeError("no time.tolerance")
+        return self.spec.tolerance
 
     def next_step(self, t: float) -> tuple[float, bool]:
         """Length of the next step from t and whether it lands on a switching instant."""
@@ -113,11 +201,19 @@ class StepController:
             t_new = self.spec.end
         return t_new
 
-    def accepted(self, t: float, report: NewtonReport, cuts: int) -> None:
-        """Count an accepted step ending at t and adapt the next step to its Newton cost."""
+    def accepted(
+        self, t: float, report: NewtonReport, cuts: int, dt: float, error: float | None = None
+    ) -> None:
+        """Count an accepted step of length dt ending at t and choose the next step.
+
+        From the local error estimate ``error`` (m) under error control, else
+        from the Newton cost; a slow solve cuts the next step in both.
+        """
         spec = self.spec
         self.steps += 1
         self.newton_iterations += report.iterations
+        if self.controls_error:
+            self._from_error(t, dt, error)
         if spec.adaptive and report.iterations >= spec.slow_iterations:
             new_dt = max(self.dt * spec.cut_factor, spec.smallest_step)
             self.say(
@@ -127,6 +223,8 @@ class StepController:
             self.dt = new_dt
         easy = report.iterations <= spec.easy_iterations and cuts == 0
         self._easy = self._easy + 1 if easy else 0
+        if self.controls_error:
+            return
         if self._easy >= 2 and spec.adaptive and self.dt < spec.largest_step:
             new_dt = min(self.dt * spec.grow_factor, spec.largest_step)
             self.say(f"t = {t:.6g} s: easy steps; step grown {self.dt:.3g} -> {new_dt:.3g} s")
@@ -146,6 +244,17 @@ class StepController:
         for k, v in state.items():
             setattr(self, k, v)
 
+    def _from_error(self, t: float, dt: float, error: float | None) -> None:
+        """The next nominal step from the accepted step's error estimate (module docstring)."""
+        if error is None:
+            return
+        spec = self.spec
+        factor = error_factor(error / (self._tolerance * self.length), spec.grow_factor)
+        proposal = min(max(dt * factor, spec.smallest_step), spec.largest_step)
+        if dt < self.dt:  # shortened to land on a switch: never grows the nominal step
+            proposal = min(proposal, self.dt)
+        self.dt = proposal
+
     def summary(self) -> dict[str, float]:
         """Step counts of the run."""
         return {
@@ -153,4 +262,21 @@ class StepController:
             "newton_iterations": float(self.newton_iterations),
             "mean_newton_iterations": self.newton_iterations / max(self.steps, 1),
             "cuts": float(self.cuts),
+            "rejected_steps": float(self.rejections),
         }
+
+
+def body_size(model: Any) -> float:
+    """Diagonal of the bounding box of the reference mesh (m; collective)."""
+    x = model.robot.mesh.geometry.x
+    comm = model.robot.mesh.comm
+    lo, hi = np.empty(x.shape[1]), np.empty(x.shape[1])
+    comm.Allreduce(np.min(x, axis=0, initial=np.inf), lo, op=MPI.MIN)
+    comm.Allreduce(np.max(x, axis=0, initial=-np.inf), hi, op=MPI.MAX)
+    return float(np.linalg.norm(hi - lo))
+
+
+def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArray[np.float64]:
+    """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
+    found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
+    return np.unique(np.concatenate(found)) if found else np.zeros(0)
