@@ -19,6 +19,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from magfem.case import Case
+from magfem.config import CaseError
 from magfem.field.model import FieldModel, create_field_model
 from magfem.field.spec import FieldSpec
 from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
@@ -30,6 +31,7 @@ from magfem.mechanics.models import MODELS, BodySetup, Model
 from magfem.mechanics.observers import (
     AppliedField,
     ArmAngles,
+    BodyMotion,
     Energies,
     Midline,
     Observer,
@@ -38,6 +40,7 @@ from magfem.mechanics.observers import (
     bonded_length,
 )
 from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
+from magfem.mechanics.pose import initial_motion
 from magfem.mechanics.problem import build_problem
 from magfem.mechanics.simulation import Simulation, SimulationResult
 
@@ -76,9 +79,15 @@ def build_simulation(
         field_model = create_field_model(case.field, comm)
     setup_time = time.perf_counter() - t0
     depth = case.robot.uniform_width or 1.0
-    body = BodySetup(depth=depth, center=tuple(case.robot.position))  # type: ignore[arg-type]
+    pose = case.initial.rotation
+    body = BodySetup(
+        depth=depth,
+        center=tuple(case.robot.position),  # type: ignore[arg-type]
+        rotation=tuple(map(tuple, pose)) if case.initial.angle else None,
+    )
     model_class = MODELS.get(case.mesh.model, "mesh.model")
     model = model_class(robot_mesh, case.material, case.solver, case.time, case.environment, body)
+    _place(case, model)
     loads: list[Load] = [
         MagneticLoad(field_model, model),
         GravityLoad(case.environment.gravity, model),
@@ -97,6 +106,21 @@ def build_simulation(
         setup_time=setup_time,
         compile_time=time.perf_counter() - t1,
     )
+
+
+def _place(case: Case, model: Model) -> None:
+    """Start the body in the placement and rigid velocity of ``[initial]`` (if it moves)."""
+    if not case.initial.moves:
+        return
+    if not model.free_body:
+        raise CaseError(
+            "initial",
+            "(a placement)",
+            "only a free body can be placed: set environment.clamped = [] and no fixed_point",
+        )
+    px, py, pz = case.robot.position
+    pivot = (px, py, pz + 0.5 * case.robot.thickness)
+    model.place(initial_motion(case.initial, pivot, model.gdim))
 
 
 def _contacts(case: Case, model: Model) -> list[Contact]:
@@ -128,6 +152,8 @@ def _observers(
     )
     observers.append(Strain(probe, case.material.shear_modulus))
     observers.append(Energies(energy_forms, model.robot.mesh.comm, model.depth))
+    if model.free_body:
+        observers.append(BodyMotion(model, case.initial.rotation[:, 2]))
     observers.append(AppliedField(field_model, _field_point(model)))
     return observers
 

@@ -27,6 +27,7 @@ from dolfinx import fem
 
 from magfem.geometry.robot_mesh import Arm, RobotMesh
 from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
+from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
 
@@ -45,10 +46,13 @@ class BodySetup:
             unit depth (1 for 3D models): multiplies per-depth totals.
         center: the robot's centre in mesh coordinates (m): the shell's
             bending frame of radial robots turns about it.
+        rotation: the rotation (3×3, rows) of the body's initial placement
+            (``[initial]``), or None: the shell measures its directors from it.
     """
 
     depth: float = 1.0
     center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[tuple[float, ...], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -179,6 +183,25 @@ class Model(ABC):
         Raises:
             CaseError: a name the model does not have (key ``contact.surfaces``).
         """
+
+    def place(self, motion: RigidMotion) -> None:
+        """Start from a rigid placement and velocity: u_n, the iterate and v_n (collective).
+
+        The displacement's nodes get x₀ − X and the rigid velocity at x₀
+        (:class:`~magfem.mechanics.pose.RigidMotion`); a strip's nodes are
+        (x, z) and keep those components.
+        """
+        integ = self.integrator.parts[0]
+        V = self.u.function_space
+        gdim = self.gdim
+        X = V.tabulate_dof_coordinates()
+        X3 = X.copy() if gdim == 3 else np.column_stack([X[:, 0], np.zeros(len(X)), X[:, 1]])
+        keep = [0, 1, 2] if gdim == 3 else [0, 2]
+        disp = (motion.position(X3) - X3)[:, keep]
+        integ.u0.x.array[:] = disp.ravel()
+        integ.u.x.array[:] = disp.ravel()
+        integ.v0.x.array[:] = motion.speed(X3)[:, keep].ravel()
+        integ.a0.x.array[:] = 0.0
 
     def displacement(self, state: Sequence[Any]) -> Any:
         """Displacement of the mass points (UFL gdim-vector, m): what gravity works on."""
