@@ -86,7 +86,6 @@ def test_free_plate_turns_as_a_magnetic_pendulum(comm):
     assert math.degrees(fine) < 0.03
 
 
-@pytest.mark.slow
 def test_free_solid_plate_turns_as_a_magnetic_pendulum(comm):
     # the solid's phase error at Δt = 0.2 ms: 0.094° (the shell's 0.081° plus its
     # thickness modes); 0.15° leaves room and fails a wrong inertia (L² vs L² + t²: 0.6°

@@ -45,10 +45,13 @@ class Contact:
     Attributes:
         name: a word for its history columns.
         surfaces: the model's contact faces it acts on (``[contact] surfaces`` style names).
+        nodal: its faces are integrated at the nodes (Gauss–Lobatto,
+            :meth:`~magfem.mechanics.models.base.Model.faces`).
     """
 
     name = "contact"
     surfaces: tuple[str, ...] = ("all",)
+    nodal: bool = False
 
     def work(self, faces: Sequence[Face]) -> list[ufl.Form] | None:
         """Virtual work per unknown of its tractions on ``faces``, or None (no UFL terms)."""

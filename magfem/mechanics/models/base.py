@@ -31,7 +31,7 @@ from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
 
-__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model", "sum_work"]
+__all__ = ["MODELS", "BodySetup", "Face", "FluxDensity", "Model", "nodal_metadata", "sum_work"]
 
 FluxDensity = Callable[[Any], Any]
 """B_a(x) (T) as a UFL 3-vector of a current position x (UFL 3-vector, m)."""
@@ -176,9 +176,21 @@ class Model(ABC):
 
     @abstractmethod
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
         """The contact faces named by ``surfaces`` (``"all"``, groups or sides) at a state.
+
+        ``nodal``: integrate with the Gauss–Lobatto points of the displacement's
+        degree (:func:`nodal_metadata`), which are its nodes, corners and edges
+        included, on quadrilateral and hexahedral cells (the default rule
+        elsewhere): a contact then acts wherever a node meets the obstacle, and
+        a corner cannot pass an obstacle's slanted wall between two interior
+        quadrature points.
 
         Raises:
             CaseError: a name the model does not have (key ``contact.surfaces``).
@@ -226,6 +238,18 @@ class Model(ABC):
     def residual_form(self, forms: list[Any]) -> Any:
         """The residual as NewtonSolver takes it: one form, or the list of block forms."""
         return forms if len(forms) > 1 else forms[0]
+
+
+def nodal_metadata(mesh: Any, degree: int, quadrature_degree: int) -> dict[str, Any]:
+    """Measure metadata of the nodal (Gauss–Lobatto) contact quadrature, or the default one.
+
+    GLL with degree + 1 points per direction (exact to degree 2 degree − 1): the
+    nodes of a Lagrange element of ``degree`` on quadrilaterals and hexahedra;
+    simplices keep ``quadrature_degree`` (basix has no GLL rule for them).
+    """
+    if mesh.topology.cell_name() in ("quadrilateral", "hexahedron"):
+        return {"quadrature_degree": 2 * degree - 1, "quadrature_rule": "GLL"}
+    return {"quadrature_degree": quadrature_degree}
 
 
 MODELS: Registry[type[Model]] = Registry("model")

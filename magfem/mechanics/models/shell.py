@@ -80,7 +80,14 @@ from magfem import material
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
-from magfem.mechanics.models.base import MODELS, BodySetup, Face, FluxDensity, Model
+from magfem.mechanics.models.base import (
+    MODELS,
+    BodySetup,
+    Face,
+    FluxDensity,
+    Model,
+    nodal_metadata,
+)
 from magfem.mechanics.models.supports import (
     clamped_entities,
     create_magnetization,
@@ -319,6 +326,7 @@ class ShellModel(Model):
         self.pose = None if body.rotation is None else np.asarray(body.rotation, dtype=float)
         self.X = ufl.SpatialCoordinate(domain)
         self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
+        self.dx_nodal = ufl.Measure("dx", domain=domain, metadata=nodal_metadata(domain, degree, q))
         self.face_offset = 0.5 * t  # the mesh is the mid-surface
         self.depth = 1.0
         self.displacement_bcs, angle_bcs = self._supports(environment, Vu, Vt)
@@ -398,13 +406,18 @@ class ShellModel(Model):
         )
 
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
         disp, angles = state
         d = director(angles, self.frame, self.pose)
         Jd = director_jacobian(angles, self.frame, self.pose)  # 3×2
         w_u, w_t = self.tests
-        dx = self.dx
+        dx = self.dx_nodal if nodal else self.dx
         out = []
         for s in _sides(surfaces):
             h = s * 0.5 * self.thickness
