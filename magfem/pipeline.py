@@ -132,7 +132,7 @@ def _contacts(case: Case, model: Model) -> list[Contact]:
         )
     if case.contact.self_contact:
         contacts.append(SelfContact(case.contact, model, shear_modulus=mat.shear_modulus))
-    contacts += [spec.build(model, mat) for spec in case.contacts]
+    contacts += [spec.build(model, mat, environment=case.environment) for spec in case.contacts]
     return contacts
 
 

@@ -33,7 +33,7 @@ import ufl
 
 from magfem.mechanics.models.base import Face, Model
 from magfem.mechanics.solver import NewtonSolver
-from magfem.mechanics.spec import MaterialSpec
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 from magfem.plugins import Registry, build_registered
 
 __all__ = ["CONTACTS", "Contact", "ContactKindSpec"]
@@ -106,8 +106,11 @@ class ContactKindSpec(ABC):
     """
 
     @abstractmethod
-    def build(self, model: Model, material: MaterialSpec) -> Contact:
-        """The contact this table describes, acting on ``model`` of ``material``."""
+    def build(
+        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+    ) -> Contact:
+        """The contact this table describes, acting on ``model`` of ``material``
+        (``environment``: gravity, for a contact with a body of its own)."""
 
     @classmethod
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> Any:

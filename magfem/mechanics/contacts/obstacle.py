@@ -86,7 +86,7 @@ from magfem.mechanics.contacts.penalty import PenaltyLaw, create_penalty_law, pe
 from magfem.mechanics.contacts.rigid import MotionSpec, box_frame, signed_distance
 from magfem.mechanics.forms import assemble_scalars, compile_form
 from magfem.mechanics.models.base import Face, Model, sum_work
-from magfem.mechanics.spec import MaterialSpec
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 
 __all__ = ["OBSTACLE_SHAPES", "MotionSpec", "Obstacle", "ObstacleSpec", "signed_distance"]
 
@@ -143,7 +143,9 @@ class ObstacleSpec(ContactKindSpec):
         if self.size is not None and not all(v > 0.0 for v in self.size):
             raise CaseError("size", self.size, "all three edges must be > 0 m")
 
-    def build(self, model: Model, material: MaterialSpec) -> Contact:
+    def build(
+        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+    ) -> Contact:
         return Obstacle(self, model, shear_modulus=material.shear_modulus, density=material.density)
 
 
