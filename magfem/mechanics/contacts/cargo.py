@@ -101,7 +101,7 @@ class CargoSpec(ContactKindSpec):
     kind: str = option("cargo", ("cargo",), doc="contact kind")
     name: str = option(doc="a word for the history columns (letters, digits, _)")
     shape: str = option("box", ("box", "sphere"), doc="box or sphere")
-    center: tuple[float, ...] = vector(doc="its centre at the start (m)")
+    center: tuple[float, ...] = vector(unit="m", doc="its centre at the start")
     size: tuple[float, ...] | None = vector(None, "m", doc="box edges along its x, y, z")
     radius: float | None = quantity(None, "m", gt=0.0, doc="sphere radius")
     axis: tuple[float, ...] | None = vector(None, "", nonzero=True, doc="the box's z edge")
