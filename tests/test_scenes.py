@@ -334,3 +334,16 @@ def test_quasi_static_gravity_sag_matches_euler_bernoulli(repo, comm):
     rate = (coarse - 1.0) / (fine - 1.0)
     assert 1.6 < rate < 2.6, rate
     assert abs(2 * fine - coarse - 1.0) < 0.015, (coarse, fine)
+
+
+@pytest.mark.serial  # rank 0 prints
+def test_check_lists_the_scene_s_sources_contacts_and_free_body(repo, capsys):
+    assert main(["check", str(repo / "cases" / "gripper.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "source    0: cylinder_magnet at (0, 0, 40) mm, moves with 'magnet'" in out
+    assert "contact   cargo 'foam': box, center (0, 0, -1.56) mm, size (3, 3, 3) mm" in out
+    assert main(["check", str(repo / "cases" / "walker.toml")]) == 0
+    assert "body      free, placed turned -90 deg about (0, 1, 0)" in capsys.readouterr().out
+    assert main(["check", str(repo / "cases" / "pipette.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "contact   obstacle 'tip': cone, apex (60, 0, 0) mm, axis (-1, 0, 0)" in out

@@ -112,6 +112,10 @@ class ContactKindSpec(ABC):
         """The contact this table describes, acting on ``model`` of ``material``
         (``environment``: gravity, for a contact with a body of its own)."""
 
+    def describe(self) -> str:
+        """One line for ``magfem check``: what this contact is, in mm."""
+        return str(getattr(self, "kind", type(self).__name__))
+
     @classmethod
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> Any:
         return build_registered(CONTACTS, table, where)

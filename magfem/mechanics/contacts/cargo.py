@@ -85,7 +85,7 @@ from magfem.field.placement import frame, rotation
 from magfem.mechanics.contacts.base import CONTACTS, Contact, ContactKindSpec
 from magfem.mechanics.contacts.obstacle import Obstacle
 from magfem.mechanics.contacts.penalty import PenaltyLaw, critical_contact_damping, penalty_ramp
-from magfem.mechanics.contacts.rigid import MotionSpec
+from magfem.mechanics.contacts.rigid import MotionSpec, describe_motion, describe_shape
 from magfem.mechanics.forms import assemble_scalars, compile_form
 from magfem.mechanics.models.base import Model
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
@@ -155,6 +155,14 @@ class CargoSpec(ContactKindSpec):
         if self.depth is not None:
             return self.depth
         return 0.5 * min(self.size) if self.size is not None else float(self.radius or 0.0)
+
+    def describe(self) -> str:
+        mass = _inertia(self)[0]
+        floor = "no floor" if self.floor is None else f"floor at z = {1e3 * self.floor:.3g} mm"
+        return (
+            f"cargo '{self.name}': {describe_shape(self)}, {1e6 * mass:.3g} mg, "
+            f"surface {self.modulus:.3g} Pa, {floor}{describe_motion(self.floor_motion)}"
+        )
 
     def build(
         self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None

@@ -83,7 +83,13 @@ from mpi4py import MPI
 from magfem.config import MISSING, CaseError, option, quantity, vector
 from magfem.mechanics.contacts.base import CONTACTS, Contact, ContactKindSpec
 from magfem.mechanics.contacts.penalty import PenaltyLaw, create_penalty_law, penalty_ramp
-from magfem.mechanics.contacts.rigid import MotionSpec, box_frame, signed_distance
+from magfem.mechanics.contacts.rigid import (
+    MotionSpec,
+    box_frame,
+    describe_motion,
+    describe_shape,
+    signed_distance,
+)
 from magfem.mechanics.forms import assemble_scalars, compile_form
 from magfem.mechanics.models.base import Face, Model, sum_work
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
@@ -142,6 +148,12 @@ class ObstacleSpec(ContactKindSpec):
                 raise CaseError(key, getattr(self, key), f"is not a key of shape '{self.shape}'")
         if self.size is not None and not all(v > 0.0 for v in self.size):
             raise CaseError("size", self.size, "all three edges must be > 0 m")
+
+    def describe(self) -> str:
+        return (
+            f"obstacle '{self.name}': {describe_shape(self)}, robot {self.side}"
+            f"{describe_motion(self.motion)}"
+        )
 
     def build(
         self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None

@@ -24,7 +24,14 @@ import ufl
 from magfem.config import MISSING, CaseError, vector
 from magfem.field.placement import frame, rotation
 
-__all__ = ["MotionSpec", "ObstaclePlacement", "box_frame", "signed_distance"]
+__all__ = [
+    "MotionSpec",
+    "ObstaclePlacement",
+    "box_frame",
+    "describe_motion",
+    "describe_shape",
+    "signed_distance",
+]
 
 
 class ObstaclePlacement(NamedTuple):
@@ -193,3 +200,38 @@ def _box(spec: Any, d: Any, gdim: int) -> tuple[Any, Any]:
     ]
     n = ufl.as_vector([sum(float(Rb[i, k]) * local[k] for k in range(gdim)) for i in range(gdim)])
     return g, n
+
+
+def describe_shape(spec: Any) -> str:
+    """``shape, its dimensions (mm)`` of an obstacle or a cargo, for ``magfem check``."""
+
+    def mm(v: Any) -> str:
+        if isinstance(v, (tuple, list)):
+            return "(" + ", ".join(f"{1e3 * x:.3g}" for x in v) + ") mm"
+        return f"{1e3 * v:.3g} mm"
+
+    keys = {
+        "half_space": ("point", "normal"),
+        "sphere": ("center", "radius"),
+        "cylinder": ("point", "axis", "radius"),
+        "cone": ("apex", "axis", "half_angle"),
+        "box": ("center", "size"),
+    }[spec.shape]
+    parts = []
+    for key in keys:
+        v = getattr(spec, key)
+        if key in ("normal", "axis"):
+            parts.append(f"{key} ({', '.join(f'{x:g}' for x in v)})")
+        elif key == "half_angle":
+            parts.append(f"half-angle {math.degrees(v):.3g} deg")
+        else:
+            parts.append(f"{key} {mm(v)}")
+    return f"{spec.shape}, " + ", ".join(parts)
+
+
+def describe_motion(motion: MotionSpec | None) -> str:
+    """``, moving (K keyframes to t s)`` or '' for a fixed part."""
+    if motion is None:
+        return ""
+    what = "moving and turning" if motion.turns else "moving"
+    return f", {what} ({len(motion.times)} keyframes to {motion.times[-1]:g} s)"
