@@ -14,6 +14,7 @@ table           dataclass                               owner module
 ``[solver]``    ``magfem.mechanics.spec.SolverSpec``    mechanics
 ``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
 ``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
+``[initial]``   ``magfem.mechanics.pose.InitialSpec``   mechanics
 ``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
 ``[[loads]]``   a spec class per ``kind``               ``magfem.mechanics.loads``
 ``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
@@ -49,6 +50,7 @@ from magfem.field.spec import FieldSpec
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 from magfem.mechanics.contacts import ContactKindSpec
 from magfem.mechanics.loads import LoadSpec
+from magfem.mechanics.pose import InitialSpec
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
@@ -84,6 +86,7 @@ class Case:
     solver: SolverSpec = _field(default_factory=SolverSpec)
     contact: ContactSpec = _field(default_factory=ContactSpec)
     environment: EnvironmentSpec = _field(default_factory=EnvironmentSpec)
+    initial: InitialSpec = _field(default_factory=InitialSpec)
     output: OutputSpec = _field(default_factory=OutputSpec)
     loads: tuple[LoadSpec, ...] = ()
     contacts: tuple[ContactKindSpec, ...] = ()

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -78,6 +79,7 @@ def _summary(case: Case) -> str:
         f"mesh      {m.model}, size {m.size * 1e3:g} mm, {m.layers} layer(s)",
         f"field     {len(case.field.sources)} source(s), model {case.field.model}",
     ]
+    lines += _scene_lines(case)
     resolution = case.resolution()
     if resolution:
         lines.append(f"bending   {resolution}")
@@ -87,6 +89,32 @@ def _summary(case: Case) -> str:
     if choice is not None:
         lines.append(f"model     {choice}")
     return "\n".join(lines)
+
+
+def _scene_lines(case: Case) -> list[str]:
+    """The field's sources and iron (where they move) and the ``[[contacts]]``, one line each."""
+    motions = {m.name: m for m in case.field.motions}
+
+    def moving(part: object) -> str:
+        name = getattr(part, "motion", "")
+        if not name:
+            return ""
+        m = motions[name]
+        return f", moves with '{name}' ({len(m.times)} keyframes to {m.times[-1]:g} s)"
+
+    lines = []
+    for k, src in enumerate(case.field.sources):
+        where = getattr(src, "center", None)
+        at = "" if where is None else " at (" + ", ".join(f"{1e3 * x:.3g}" for x in where) + ") mm"
+        lines.append(f"source    {k}: {src.kind}{at}{moving(src)}")
+    lines += [f"iron      {k}: {p.kind}{moving(p)}" for k, p in enumerate(case.field.iron)]
+    lines += [f"contact   {spec.describe()}" for spec in case.contacts]
+    env, init = case.environment, case.initial
+    if not env.clamped and env.fixed_point is None:
+        axis = ", ".join(f"{x:g}" for x in init.axis)
+        turned = f", placed turned {math.degrees(init.angle):.3g} deg about ({axis})"
+        lines.append("body      free" + (turned if init.angle else ""))
+    return lines
 
 
 def _cmd_check(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:

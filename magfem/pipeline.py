@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 from magfem.accuracy import resolve_model
 from magfem.case import Case
-from magfem.config import to_table
+from magfem.config import CaseError, to_table
 from magfem.field.model import FieldModel, create_field_model
 from magfem.field.spec import FieldSpec
 from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
@@ -35,6 +35,7 @@ from magfem.mechanics.models import MODELS, BodySetup, Model, ModelInputs
 from magfem.mechanics.observers import (
     AppliedField,
     ArmAngles,
+    BodyMotion,
     Energies,
     Midline,
     Observer,
@@ -43,6 +44,7 @@ from magfem.mechanics.observers import (
     bonded_length,
 )
 from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
+from magfem.mechanics.pose import initial_motion
 from magfem.mechanics.problem import build_problem
 from magfem.mechanics.series import VtuSeries
 from magfem.mechanics.simulation import Simulation, SimulationResult
@@ -90,10 +92,16 @@ def build_simulation(
         field_model = create_field_model(case.field, comm)
     setup_time = time.perf_counter() - t0
     depth = case.robot.uniform_width or 1.0
-    body = BodySetup(depth=depth, center=tuple(case.robot.position))  # type: ignore[arg-type]
+    pose = case.initial.rotation
+    body = BodySetup(
+        depth=depth,
+        center=tuple(case.robot.position),  # type: ignore[arg-type]
+        rotation=tuple(map(tuple, pose)) if case.initial.angle else None,
+    )
     model_class = MODELS.get(case.mesh.model, "mesh.model")
     inputs = ModelInputs(robot_mesh, case.material, case.solver, case.time, case.environment, body)
     model = model_class(inputs)
+    _place(case, model)
     loads: list[Load] = [
         MagneticLoad(field_model, model),
         GravityLoad(case.environment.gravity, model),
@@ -115,6 +123,21 @@ def build_simulation(
     )
 
 
+def _place(case: Case, model: Model) -> None:
+    """Start the body in the placement and rigid velocity of ``[initial]`` (if it moves)."""
+    if not case.initial.moves:
+        return
+    if not model.free_body:
+        raise CaseError(
+            "initial",
+            "(a placement)",
+            "only a free body can be placed: set environment.clamped = [] and no fixed_point",
+        )
+    px, py, pz = case.robot.position
+    pivot = (px, py, pz + 0.5 * case.robot.thickness)
+    model.place(initial_motion(case.initial, pivot, model.gdim))
+
+
 def _contacts(case: Case, model: Model) -> list[Contact]:
     mat = case.material
     contacts: list[Contact] = []
@@ -124,7 +147,7 @@ def _contacts(case: Case, model: Model) -> list[Contact]:
         )
     if case.contact.self_contact:
         contacts.append(SelfContact(case.contact, model, shear_modulus=mat.shear_modulus))
-    contacts += [spec.build(model, mat) for spec in case.contacts]
+    contacts += [spec.build(model, mat, environment=case.environment) for spec in case.contacts]
     return contacts
 
 
@@ -144,6 +167,8 @@ def _observers(
     )
     observers.append(Strain(probe, case.material.shear_modulus))
     observers.append(Energies(energy_forms, model.robot.mesh.comm, model.depth))
+    if model.free_body:
+        observers.append(BodyMotion(model, case.initial.rotation[:, 2]))
     observers.append(AppliedField(field_model, _field_point(model)))
     return observers
 

@@ -25,6 +25,12 @@ ground-contact Newton solve then cut the step to 5e-7 s (five_arm: > 3 min
 for 0.6 ms, 2026-11-21); without the ground the pressed arms rotate down,
 which the direction check still distinguishes from the lifted ones.
 
+The untethered scenes (free bodies, obstacles, a cargo, moving sources:
+docs/untethered.md) get their own checks of the first milliseconds: the
+sense of the first turn from M × B, free fall in a uniform field, the arms of
+an on-axis magnet's gripper bending alike, the cube resting on its table, the
+pull of the tweezers exceeding the weight.
+
 Serial: every scene (~2 min in all, JIT cache warm; +~30 s cold).
 ``mpirun -n 2``: two scenes (a strip and a 3D solid).
 """
@@ -32,6 +38,7 @@ Serial: every scene (~2 min in all, JIT cache warm; +~30 s cold).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -167,10 +174,111 @@ def test_scene_under_mpi(name, repo, shared_tmp, comm):
 
 
 def test_every_case_file_is_a_scene(repo):
-    """The library's robot cases and the test list agree (a new case must get a tiny run here;
+    """The library's robot cases and the test lists agree (a new case must get a tiny run here;
     field-only cases, without [robot], are run by the field tests)."""
     files = {p.stem for p in (repo / "cases").glob("*.toml") if "[robot]" in p.read_text()}
-    assert files == set(SCENES)
+    assert files == set(SCENES) | set(FREE_SCENES)
+
+
+# --- untethered scenes ---------------------------------------------------------------------
+#
+# Free bodies, obstacles, a cargo and moving sources (docs/untethered.md). Each tiny run is
+# checked against what the first milliseconds must show whatever the resolution:
+
+
+def _free_five_arm(h, case) -> None:
+    # B = -B e_x on M = M e_z: τ = M × B = -M B e_y, the normal turns towards -x (a negative
+    # tilt about y), arm 1 (+x) lifts off the substrate and the centre of mass rises
+    assert h["tilt_about_y"][-1] < -math.radians(0.2)
+    assert h["angle_arm_1"][-1] > math.radians(5)
+    assert h["com_z"][-1] > h["com_z"][0]
+
+
+def _walker(h, case) -> None:
+    # standing with its normal along -x in B = +B e_z: τ = M (-e_x) × B e_z = M B e_y turns
+    # the normal towards +z: the robot starts to lay down, its tilt about y rises from -90°
+    assert h["tilt"][0] == pytest.approx(math.pi / 2, abs=1e-6)
+    assert h["tilt"][-1] < h["tilt"][0] - math.radians(3)
+    assert h["tilt_about_y"][-1] > h["tilt_about_y"][0] + math.radians(3)
+
+
+def _levitation(h, case) -> None:
+    # the first half period of the in-plane wave is B_x > 0: τ = M e_z × B e_x = M B e_y,
+    # the normal tilts towards +x; the robot stays in the glass within the penalty's onset
+    assert h["tilt_about_y"][-1] > math.radians(0.5)
+    onset = 0.05 * case.robot.thickness  # penalty_onset (thicknesses) of the glass
+    assert h["obstacle_glass_gap"].min() > -onset
+
+
+def _gripper(h, case) -> None:
+    # the magnet's field below it points down and outwards: every arm (normal +z) bends down,
+    # all alike (the magnet is on the robot's axis; 3 % for the coarse mesh's asymmetry)
+    angles = np.array([h[f"angle_arm_{k}"][-1] for k in range(1, 7)])
+    assert np.all(angles < -math.radians(5))
+    assert np.ptp(angles) < 0.03 * abs(angles.mean())
+    # the cube rests on its table: the floor carries its weight ρ g a³
+    weight = 30.0 * 3e-3**3 * 9.8
+    assert h["cargo_foam_floor"][-1] == pytest.approx(weight, rel=0.05)
+    assert h["cargo_foam_held"][-1] == 0.0
+
+
+def _pipette(h, case) -> None:
+    # a free body in a uniform field feels no net magnetic force: until it touches the tip's
+    # wall (gap > 0 throughout) its centre of mass falls freely, v_z = -g t (the
+    # midpoint rule integrates a constant force exactly; 1e-6 for Newton's tolerance)
+    assert h["obstacle_tip_gap"].min() > 0.0
+    assert h["com_vz"][-1] == pytest.approx(-9.8 * h["time"][-1], rel=1e-6)
+
+
+def _tweezers(h, case) -> None:
+    # the magnetised iron above pulls the robot (moment along +z, up the field's gradient)
+    # harder than its weight: it leaves the surface and rises, level (the tips are on its axis)
+    assert h["com_vz"][-1] > 0.0 and h["com_z"][-1] > h["com_z"][0]
+    assert h["contact_force"][-1] == 0.0
+    assert h["tilt"][-1] < math.radians(1)
+
+
+COARSE_IRON = ("field.solve.mesh_size=3mm", "field.solve.workspace_mesh_size=1.5mm")
+FREE_SCENES: dict[str, tuple[list[str], Any]] = {
+    "five_arm_free": (_tiny("1.5mm", "2ms", "0.5ms"), _free_five_arm),
+    "walker": (_tiny("2mm", "3ms", "0.5ms"), _walker),
+    "levitation": (_tiny("2mm", "2ms", "0.5ms"), _levitation),
+    "gripper": (_tiny("1.2mm", "2ms", "0.5ms"), _gripper),
+    "pipette": (_tiny("1.5mm", "2ms", "0.5ms"), _pipette),
+    "tweezers": (_tiny("1.2mm", "2ms", "0.5ms", *COARSE_IRON), _tweezers),
+}
+"""Untethered scene case -> (``--set`` arguments of its tiny run, its check)."""
+
+FREE_HEAVY = tuple(FREE_SCENES)  # every one over ~3 s (tweezers ~50 s: its iron solve)
+FREE_PARALLEL = ("gripper",)
+
+
+def _check_free_scene(name: str, repo, shared_tmp, comm) -> None:
+    args, check = FREE_SCENES[name]
+    path = repo / "cases" / f"{name}.toml"
+    out = shared_tmp / name
+    assert main(["run", str(path), "--out", str(out), *args, *QUIET]) == 0
+    comm.barrier()
+    case = load_case(path, _overrides(args))
+    h = _history(out / "history.csv")
+    assert h["time"][-1] == pytest.approx(case.time.end, rel=1e-9)
+    assert all(np.all(np.isfinite(v)) for v in h.values())
+    check(h, case)
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in FREE_HEAVY else n for n in FREE_SCENES],
+)
+def test_untethered_scene_runs_and_moves_as_predicted(name, repo, shared_tmp, comm):
+    _check_free_scene(name, repo, shared_tmp, comm)
+
+
+@pytest.mark.parallel  # the serial test covers these scenes on one rank
+@pytest.mark.parametrize("name", FREE_PARALLEL)
+def test_untethered_scene_under_mpi(name, repo, shared_tmp, comm):
+    _check_free_scene(name, repo, shared_tmp, comm)
 
 
 def _gravity_sag(repo, comm, thickness_mm: float, shear_kpa: float, size_mm: float) -> float:
@@ -224,3 +332,16 @@ def test_quasi_static_gravity_sag_matches_euler_bernoulli(repo, comm):
     rate = (coarse - 1.0) / (fine - 1.0)
     assert 1.6 < rate < 2.6, rate
     assert abs(2 * fine - coarse - 1.0) < 0.015, (coarse, fine)
+
+
+@pytest.mark.serial  # rank 0 prints
+def test_check_lists_the_scene_s_sources_contacts_and_free_body(repo, capsys):
+    assert main(["check", str(repo / "cases" / "gripper.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "source    0: cylinder_magnet at (0, 0, 40) mm, moves with 'magnet'" in out
+    assert "contact   cargo 'foam': box, center (0, 0, -1.56) mm, size (3, 3, 3) mm" in out
+    assert main(["check", str(repo / "cases" / "walker.toml")]) == 0
+    assert "body      free, placed turned -90 deg about (0, 1, 0)" in capsys.readouterr().out
+    assert main(["check", str(repo / "cases" / "pipette.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "contact   obstacle 'tip': cone, apex (60, 0, 0) mm, axis (-1, 0, 0)" in out

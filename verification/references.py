@@ -106,11 +106,46 @@ cosh βy cos βy and sinh βy sin βy, β⁴ = E h κ²/(4D).
 U[w] by quadrature, U/(D b κ²/2): the beam's 1 − ν² for a narrow strip,
 the plate's 1 for a wide one. The rod's section law (Ashwell's closed form,
 :mod:`magfem.mechanics.models.rod_section`) is checked against it.
+
+5. Free rigid bodies
+--------------------
+*Magnetic pendulum.* A rigid plate of magnetic moment m = M V along its
+normal d, free to turn about a principal axis of inertia I perpendicular to
+a uniform field B at angle φ_B to the initial normal, has the energy
+−m·B = −M V B cos(φ − φ_B): I φ'' = −M V B sin(φ − φ_B)
+(:func:`magnetic_pendulum`, solve_ivp). A uniform field exerts no force, so
+its centre of mass stays put; for a plate L × W × t turning about the W
+edge direction I = m_p (L² + t²)/12.
+
+*Constant gradient.* In B(x) = B0 + G (x − x0) (G symmetric and traceless
+in air) a rigid body of moment m aligned with B feels no torque and the
+force ∇(m·B) = Gᵀm = (m·∇)B: its centre of mass accelerates uniformly at
+(m·∇)B / mass.
+
+*Levitation above a magnet.* A rigid horizontal plate of thickness t and
+area A, magnetised M against the +z field of a magnet below it, has the
+energy U(z) = M t ∫_A B_z(x, y, z) dA at height z of its mid-surface
+(:func:`levitation_equilibrium` integrates it with Gauss–Legendre points of
+the exact magnet field): the magnetic force F(z) = −M t ∫_A ∂B_z/∂z dA
+balances the weight ρ t A g at z*, and small vertical oscillations about z*
+have ω² = −F'(z*)/(ρ t A). The anti-aligned plate is vertically stable
+where B_z is convex, laterally unstable (Earnshaw), and stable against
+tilting only when it is wide: U_φφ ∝ ∫ (2 x² ∂²B_z/∂z² − B_z) dA > 0, i.e.
+a half-width beyond ~0.35 z for a dipole far field.
+
+*Block on a slope.* A rigid block on a plane inclined by θ with Coulomb
+friction μ_f stays at rest for tan θ ≤ μ_f and otherwise accelerates at
+g (sin θ − μ_f cos θ) (:func:`slope_acceleration`). Under the regularised
+law t_t = −μ_f p v/sqrt(v² + ε²) it creeps below the threshold at the
+steady speed where friction balances the slope, v = ε tan θ/sqrt(μ_f² − tan² θ)
+(:func:`creep_velocity`), and above it the acceleration tends to the
+Coulomb value as (ε/v)² → 0.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -126,15 +161,19 @@ __all__ = [
     "bending_modulus",
     "cantilever_eigenvalue",
     "cantilever_frequency",
+    "creep_velocity",
     "elastica_load",
     "elastica_tip_angle_first_integral",
     "hard_magnetic_elastica",
+    "levitation_equilibrium",
+    "magnetic_pendulum",
     "penalty_penetration",
     "poisson_ratio",
     "regularized_sliding_distance",
     "regularized_sliding_time",
     "resting_pressure",
     "sliding_velocity",
+    "slope_acceleration",
     "young_modulus",
 ]
 
@@ -394,3 +433,76 @@ NARROW_SHELL_DRIVE_DEG = (
 """The shell's tip angle (degrees) every millisecond, 0–25 ms, of the narrow arm in the
 default case's drive (:func:`verification.setups.narrow_drive_history`: 0.25 mm wide, P3
 at 0.25 mm, Δt = 0.125 ms), printed by ``python -m benchmarks.rod_vs_shell``."""
+
+
+def magnetic_pendulum(
+    times: NDArray[np.float64], stiffness: float, field_angle: float
+) -> NDArray[np.float64]:
+    """Angle φ(t) (rad) of φ'' = −k sin(φ − φ_B), φ(0) = φ'(0) = 0, at ``times`` (s).
+
+    Args:
+        stiffness: k = M V B / I (1/s²).
+        field_angle: φ_B (rad).
+    """
+    t = np.asarray(times, dtype=float)
+    sol = integrate.solve_ivp(
+        lambda _, y: [y[1], -stiffness * math.sin(y[0] - field_angle)],
+        (0.0, float(t[-1])),
+        [0.0, 0.0],
+        t_eval=t,
+        rtol=1e-11,
+        atol=1e-13,
+    )
+    return np.asarray(sol.y[0])
+
+
+def levitation_equilibrium(
+    gradient: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    *,
+    half_width: float,
+    magnetization: float,
+    density: float,
+    gravity: float = 9.8,
+    bracket: tuple[float, float] = (1e-3, 0.2),
+    points: int = 24,
+) -> tuple[float, float]:
+    """(z* (m), ω (rad/s)) of a square plate levitated against a magnet's field (section 4).
+
+    Args:
+        gradient: ∇B (N, 3, 3) (T/m) of the magnet at points (N, 3) (m); its
+            field is along +z on the plate's axis x = y = 0.
+        half_width: half the plate's edge (m); the plate is centred on the axis.
+        magnetization: M (A/m) of the plate, against +z.
+        density: ρ (kg/m³). gravity: g (m/s²).
+        bracket: heights (m) that bracket z*.
+        points: Gauss–Legendre points per direction.
+    """
+    xg, wg = np.polynomial.legendre.leggauss(points)
+    X, Y = np.meshgrid(half_width * xg, half_width * xg, indexing="ij")
+    W = np.outer(wg, wg).ravel() * half_width**2
+    area = 4.0 * half_width**2
+
+    def lift(z: float) -> float:  # F(z)/t per unit density of weight (m/s²)
+        pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, z)])
+        return -magnetization * float(np.sum(W * gradient(pts)[:, 2, 2])) / (density * area)
+
+    z_eq = optimize.brentq(lambda z: lift(z) - gravity, *bracket, xtol=1e-14)
+    h = 1e-6 * z_eq
+    stiffness = -(lift(z_eq + h) - lift(z_eq - h)) / (2.0 * h)  # ω² (1/s²)
+    return float(z_eq), math.sqrt(stiffness)
+
+
+def slope_acceleration(angle: float, friction: float, gravity: float = 9.8) -> float:
+    """Acceleration (m/s²) down a slope of ``angle`` (rad), Coulomb friction (0: it sticks)."""
+    return max(gravity * (math.sin(angle) - friction * math.cos(angle)), 0.0)
+
+
+def creep_velocity(angle: float, friction: float, regularization_velocity: float) -> float:
+    """Steady creep speed (m/s) on a slope below the friction angle, regularised law (section 4).
+
+    ε tan θ / sqrt(μ_f² − tan² θ); raises ValueError at or above tan θ = μ_f.
+    """
+    tan = math.tan(angle)
+    if tan >= friction:
+        raise ValueError("no steady creep at or above the friction angle")
+    return regularization_velocity * tan / math.sqrt(friction**2 - tan**2)

@@ -163,7 +163,7 @@ def choose_model(
     model = "nodal" if spec.model == "fe" else spec.model
     if all(term.field.uniform for term in terms):
         return ("uniform" if model == "auto" else model), {}
-    if model == "nodal":
+    if model in ("nodal", "nodal2"):
         return model, {}
     x0 = np.asarray(spec.expansion_point, dtype=float)
     err = model_errors(terms, comm, x0, pts, float(np.ptp(pts, axis=0).max()) or None)

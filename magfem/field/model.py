@@ -1,6 +1,6 @@
 """The field model of a case: :func:`create_field_model` (the mechanics' entry point).
 
-The models themselves (``uniform``, ``taylor1``, ``taylor2``, ``nodal``) are
+The models themselves (``uniform``, ``taylor1``, ``taylor2``, ``nodal``, ``nodal2``) are
 in :mod:`magfem.field.models`; how ``auto`` chooses and what it warns about
 in :mod:`magfem.field.choice`.
 """
@@ -66,4 +66,4 @@ def create_field_model(
         return UniformFieldModel(terms, comm, x0)
     if name in ("taylor1", "taylor2"):
         return TaylorFieldModel(terms, comm, x0, int(name[-1]))
-    return NodalFieldModel(terms, comm)
+    return NodalFieldModel(terms, comm, 2 if name == "nodal2" else 1)

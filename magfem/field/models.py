@@ -18,6 +18,8 @@ rigid placement P_s(t): B_s(x, t) = R B_s(Rᵀ(x − d))):
              the current nodes, refreshed each time step; inside a step the
              field is linear in x − x_n, so the ∇B·δu term of the Jacobian is
              exact in UFL (``fe`` is the former name of this model)
+``nodal2``   … + ½ ∇∇B_s(x_n, t) : (x − x_n) ⊗ (x − x_n): the gradient force
+             follows the body within a step (free bodies in a field trap)
 ==========  ==============================================================
 
 x0 is ``FieldSpec.expansion_point``. Time enters only through
@@ -245,22 +247,34 @@ class UniformFieldModel(TaylorFieldModel):
 
 
 class NodalFieldModel(FieldModel):
-    """The exact field re-linearised about the robot's current nodes at each update.
+    """The exact field re-expanded about the robot's current nodes at each update.
 
     On the robot mesh it keeps, per term s, B_s(x_n) and ∇B_s(x_n) at the nodes
     x_n = X + u_n of a Lagrange space of the mesh's geometry degree; between
     refreshes B(x) = Σ_s w_s(t) [B_s(x_n) + ∇B_s(x_n)(x − x_n)]. Fixed terms are
     re-evaluated when ``u`` is passed, moving terms at every update.
+
+    ``order = 2`` (``nodal2``) adds ½ ∇∇B_s(x_n) : (x − x_n) ⊗ (x − x_n). With
+    order 1 the field gradient, and so the gradient force (m·∇)B, is frozen at
+    the start of the step: a body oscillating in a field trap of frequency ω
+    then gains energy at a relative rate of about π ω Δt per period (a force
+    lagging the motion by Δt/2); the Hessian term makes the force follow the
+    body within the step, and the lag second order.
     """
 
     name = "nodal"
 
-    def __init__(self, terms: Sequence[Term], comm: MPI.Comm):
+    def __init__(self, terms: Sequence[Term], comm: MPI.Comm, order: int = 1):
         super().__init__(terms, comm)
+        if order not in (1, 2):
+            raise ValueError(f"nodal order must be 1 or 2, got {order}")
+        self.order = order
+        self.name = "nodal" if order == 1 else "nodal2"
         self._f: dict[str, Any] = {}
         self._x = np.zeros((0, 3))
         self._bs: list[np.ndarray] = []
         self._gs: list[np.ndarray] = []
+        self._hs: list[np.ndarray] = []
 
     def bind(self, domain: Any) -> None:
         deg = max(2, domain.geometry.cmaps[0].degree)
@@ -274,6 +288,9 @@ class NodalFieldModel(FieldModel):
             "xn": fem.Function(V3, name="x_expansion"),
             "u": fem.Function(Vu),
         }
+        if self.order == 2:
+            VH = fem.functionspace(domain, ("Lagrange", deg, (3, 3, 3)))
+            self._f["H"] = fem.Function(VH, name="hessB_applied")
         self._X = embed_points(V3.tabulate_dof_coordinates(), self._gdim)
         self._refresh(self._X, self.t, every=True)
         self.update(self.t, side=self.side)
@@ -284,14 +301,23 @@ class NodalFieldModel(FieldModel):
         if every:
             self._bs = [np.zeros((len(x), 3)) for _ in self.terms]
             self._gs = [np.zeros((len(x), 3, 3)) for _ in self.terms]
+            self._hs = [np.zeros((len(x), 3, 3, 3)) for _ in self.terms]
         for k, term in enumerate(self.terms):
             if every or term.trajectory is not None:
-                self._bs[k], self._gs[k] = term_values(term, x, t)
+                values = term_values(term, x, t, order=self.order)
+                self._bs[k], self._gs[k] = values[0], values[1]
+                if self.order == 2:
+                    self._hs[k] = values[2]
 
     def flux_density(self, x: Any) -> Any:
         if not self._f:
             raise RuntimeError("FieldModel.bind(domain) must be called before flux_density()")
-        return self._f["B"] + ufl.dot(self._f["G"], x - self._f["xn"])
+        d = x - self._f["xn"]
+        B = self._f["B"] + ufl.dot(self._f["G"], d)
+        if self.order == 2:
+            i, j, k = ufl.indices(3)
+            B = B + 0.5 * ufl.as_vector(self._f["H"][i, j, k] * d[j] * d[k], i)
+        return B
 
     def update(self, t: float, *, side: str = "right", u: Any = None) -> None:
         self.t, self.side = float(t), side
@@ -311,5 +337,12 @@ class NodalFieldModel(FieldModel):
         self._f["G"].x.array[:] = sum(
             (w * g for w, g in zip(a, self._gs, strict=True)), np.zeros((len(self._x), 3, 3))
         ).ravel()
-        for name in ("B", "G", "xn"):
+        names = ["B", "G", "xn"]
+        if self.order == 2:
+            self._f["H"].x.array[:] = sum(
+                (w * h for w, h in zip(a, self._hs, strict=True)),
+                np.zeros((len(self._x), 3, 3, 3)),
+            ).ravel()
+            names.append("H")
+        for name in names:
             self._f[name].x.scatter_forward()

@@ -60,7 +60,7 @@ from magfem.units import UnitError, parse_quantity
 
 __all__ = ["MODELS", "FieldSpec", "IronSpec", "MotionSpec", "SolveSpec"]
 
-MODELS = ("auto", "uniform", "taylor1", "taylor2", "nodal", "fe")
+MODELS = ("auto", "uniform", "taylor1", "taylor2", "nodal", "nodal2", "fe")
 
 
 @dataclass(frozen=True)
@@ -143,7 +143,9 @@ class FieldSpec:
     ``model``: ``uniform`` (B(t) at ``expansion_point``, no gradient),
     ``taylor1``/``taylor2`` (B, ∇B (, ∇∇B) at ``expansion_point``),
     ``nodal`` (the field at the robot's nodes, re-expanded every time step;
-    ``fe`` is its former name) or ``auto``: the cheapest of these whose
+    ``fe`` is its former name), ``nodal2`` (also ∇∇B at the nodes: the
+    gradient force follows a free body within a step) or ``auto``: the
+    cheapest of ``uniform``, ``taylor1``, ``taylor2``, ``nodal`` whose
     errors over the workspace (cube of edge ``workspace_size`` about
     ``expansion_point``) are within ``tolerance`` (:mod:`magfem.field.model`).
     """

@@ -100,7 +100,8 @@ class Problem:
         self, forms: list[Any], states: Sequence[Any], rates: Sequence[Any]
     ) -> list[Any]:
         for contact in self.contacts:
-            work = contact.work(self.model.faces(states, rates, contact.surfaces))
+            faces = self.model.faces(states, rates, contact.surfaces, nodal=contact.nodal)
+            work = contact.work(faces)
             if work is not None:
                 forms = [f - w for f, w in zip(forms, work, strict=True)]
         return forms

@@ -33,7 +33,7 @@ import ufl
 
 from magfem.mechanics.models.base import Face, Model
 from magfem.mechanics.solver import NewtonSolver
-from magfem.mechanics.spec import MaterialSpec
+from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 from magfem.plugins import Registry, build_registered
 
 __all__ = ["CONTACTS", "Contact", "ContactKindSpec"]
@@ -45,10 +45,13 @@ class Contact:
     Attributes:
         name: a word for its history columns.
         surfaces: the model's contact faces it acts on (``[contact] surfaces`` style names).
+        nodal: its faces are integrated at the nodes (Gauss–Lobatto,
+            :meth:`~magfem.mechanics.models.base.Model.faces`).
     """
 
     name = "contact"
     surfaces: tuple[str, ...] = ("all",)
+    nodal: bool = False
 
     def work(self, faces: Sequence[Face]) -> list[ufl.Form] | None:
         """Virtual work per unknown of its tractions on ``faces``, or None (no UFL terms)."""
@@ -103,8 +106,15 @@ class ContactKindSpec(ABC):
     """
 
     @abstractmethod
-    def build(self, model: Model, material: MaterialSpec) -> Contact:
-        """The contact this table describes, acting on ``model`` of ``material``."""
+    def build(
+        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+    ) -> Contact:
+        """The contact this table describes, acting on ``model`` of ``material``
+        (``environment``: gravity, for a contact with a body of its own)."""
+
+    def describe(self) -> str:
+        """One line for ``magfem check``: what this contact is, in mm."""
+        return str(getattr(self, "kind", type(self).__name__))
 
     @classmethod
     def __from_table__(cls, table: Mapping[str, Any], where: str) -> Any:

@@ -28,7 +28,9 @@ from dolfinx import fem
 
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import Arm, RobotMesh
-from magfem.mechanics.integrator import BlockIntegrator, TimeIntegrator
+from magfem.mechanics.block_integrator import BlockIntegrator
+from magfem.mechanics.integrator import TimeIntegrator
+from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
 
@@ -40,6 +42,7 @@ __all__ = [
     "Model",
     "ModelInputs",
     "midsurface_sides",
+    "nodal_metadata",
     "sum_work",
 ]
 
@@ -56,10 +59,13 @@ class BodySetup:
             unit depth (1 for 3D models): multiplies per-depth totals.
         center: the robot's centre in mesh coordinates (m): the shell's
             bending frame of radial robots turns about it.
+        rotation: the rotation (3×3, rows) of the body's initial placement
+            (``[initial]``), or None: the shell measures its directors from it.
     """
 
     depth: float = 1.0
     center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[tuple[float, ...], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -231,13 +237,44 @@ class Model(ABC):
 
     @abstractmethod
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
         """The contact faces named by ``surfaces`` (``"all"``, groups or sides) at a state.
+
+        ``nodal``: integrate with the Gauss–Lobatto points of the displacement's
+        degree (:func:`nodal_metadata`), which are its nodes, corners and edges
+        included, on quadrilateral and hexahedral cells (the default rule
+        elsewhere): a contact then acts wherever a node meets the obstacle, and
+        a corner cannot pass an obstacle's slanted wall between two interior
+        quadrature points.
 
         Raises:
             CaseError: a name the model does not have (key ``contact.surfaces``).
         """
+
+    def place(self, motion: RigidMotion) -> None:
+        """Start from a rigid placement and velocity: u_n, the iterate and v_n (collective).
+
+        The displacement's nodes get x₀ − X and the rigid velocity at x₀
+        (:class:`~magfem.mechanics.pose.RigidMotion`); a strip's nodes are
+        (x, z) and keep those components.
+        """
+        integ = self.integrator.parts[0]
+        V = self.u.function_space
+        gdim = self.gdim
+        X = V.tabulate_dof_coordinates()
+        X3 = X.copy() if gdim == 3 else np.column_stack([X[:, 0], np.zeros(len(X)), X[:, 1]])
+        keep = [0, 1, 2] if gdim == 3 else [0, 2]
+        disp = (motion.position(X3) - X3)[:, keep]
+        integ.u0.x.array[:] = disp.ravel()
+        integ.u.x.array[:] = disp.ravel()
+        integ.v0.x.array[:] = motion.speed(X3)[:, keep].ravel()
+        integ.a0.x.array[:] = 0.0
 
     def displacement(self, state: Sequence[Any]) -> Any:
         """Displacement of the mass points (UFL gdim-vector, m): what gravity works on."""
@@ -264,13 +301,31 @@ class Model(ABC):
         return forms if len(forms) > 1 else forms[0]
 
 
+def nodal_metadata(mesh: Any, degree: int, quadrature_degree: int) -> dict[str, Any]:
+    """Measure metadata of the nodal (Gauss–Lobatto) contact quadrature, or the default one.
+
+    GLL with degree + 1 points per direction (exact to degree 2 degree − 1): the
+    nodes of a Lagrange element of ``degree`` on quadrilaterals and hexahedra;
+    simplices keep ``quadrature_degree`` (basix has no GLL rule for them).
+    """
+    if mesh.topology.cell_name() in ("quadrilateral", "hexahedron"):
+        return {"quadrature_degree": 2 * degree - 1, "quadrature_rule": "GLL"}
+    return {"quadrature_degree": quadrature_degree}
+
+
 MODELS: Registry[type[Model]] = Registry("model")
 """``[mesh] model`` name -> Model class (filled by the model modules)."""
 
 
 def time_integrator(unknown: fem.Function, time: TimeSpec) -> TimeIntegrator:
     """The ``[time]`` scheme's integrator of one unknown (its ρ∞ and first step)."""
-    return TimeIntegrator(unknown, time.scheme, rho_inf=time.rho_inf, dt=time.step)
+    return TimeIntegrator(
+        unknown,
+        time.scheme,
+        rho_inf=time.rho_inf,
+        dt=time.step,
+        average_forces=time.average_forces,
+    )
 
 
 _SIDES = {"bottom": -1.0, "clamp": -1.0, "top": 1.0}

@@ -32,6 +32,7 @@ from magfem.mechanics.models.base import (
     FluxDensity,
     Model,
     ModelInputs,
+    nodal_metadata,
     time_integrator,
 )
 from magfem.mechanics.models.supports import (
@@ -90,6 +91,12 @@ class ContinuumModel(Model):
         self.ds = ufl.Measure(
             "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
         )
+        self.ds_nodal = ufl.Measure(
+            "ds",
+            domain=domain,
+            subdomain_data=robot.facet_tags,
+            metadata=nodal_metadata(domain, degree, q),
+        )
         self.face_offset = 0.0
         self.depth = inputs.body.depth if gdim == 2 else 1.0
         self.bcs = self._supports(inputs.environment, V)
@@ -132,9 +139,14 @@ class ContinuumModel(Model):
         return 0.5 * self.rho * ufl.dot(rates[0], rates[0]) * self.dx
 
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
-        measure, facets = self._contact_measure(surfaces)
+        measure, facets = self._contact_measure(surfaces, self.ds_nodal if nodal else self.ds)
         w = self.tests[0]
         return [
             Face(
@@ -146,13 +158,14 @@ class ContinuumModel(Model):
             )
         ]
 
-    def _contact_measure(self, names: Sequence[str]) -> tuple[ufl.Measure, Any]:
-        """Measure and local facets of the facet groups ``names`` (``"all"``: the boundary)."""
+    def _contact_measure(self, names: Sequence[str], ds: ufl.Measure) -> tuple[ufl.Measure, Any]:
+        """Measure (``ds`` restricted) and local facets of the facet groups ``names``
+        (``"all"``: the boundary)."""
         robot = self.robot
         tdim = robot.mesh.topology.dim
         if "all" in names:
             robot.mesh.topology.create_connectivity(tdim - 1, tdim)
-            return self.ds, dmesh.exterior_facet_indices(robot.mesh.topology)
+            return ds, dmesh.exterior_facet_indices(robot.mesh.topology)
         tags: list[int] = []
         for i, name in enumerate(names):
             if name not in robot.groups:
@@ -172,7 +185,7 @@ class ContinuumModel(Model):
                 "contact.surfaces", list(names), 'matches no facet group of this robot; use "all"'
             )
         facets = np.unique(np.concatenate([robot.facet_tags.find(tag) for tag in tags]))
-        return self.ds(tuple(tags)), facets
+        return ds(tuple(tags)), facets
 
 
 @MODELS.register("solid")

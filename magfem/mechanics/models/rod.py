@@ -64,6 +64,7 @@ import ufl
 from dolfinx import fem
 
 from magfem import material
+from magfem.config import CaseError
 from magfem.geometry.rod_mesh import HUB_STIFFENING
 from magfem.mechanics.models.base import (
     MODELS,
@@ -84,6 +85,7 @@ from magfem.mechanics.models.supports import (
     fixed_point_dofs,
     is_free,
 )
+from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec
 
 __all__ = ["RodKinematics", "RodModel", "WeightedMeasure", "rate_matrix", "rotation"]
@@ -331,9 +333,28 @@ class RodModel(Model):
         J = ufl.diag(self.rotary)
         return 0.5 * (self.mass_density * ufl.dot(v, v) + ufl.dot(omega, J * omega)) * self.dx
 
+    def place(self, motion: RigidMotion) -> None:
+        """Start translated (and moving) rigidly; a turned or spinning start is refused.
+
+        Raises:
+            CaseError: ``[initial]`` turns or spins the rod (its angles would have
+                to start at the rotation, which this model does not set).
+        """
+        if not np.allclose(motion.R, np.eye(3)) or np.any(motion.omega):
+            raise CaseError(
+                "initial", "(a rotation)", "the rod model can only start translated: no angle, spin"
+            )
+        super().place(motion)
+
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
+        """The rod's bottom and top faces; ``nodal`` does not apply (line cells: one rule)."""
         disp, angles = state
         th = ufl.variable(angles)
         normal = RodKinematics(disp, th, self.frame).directors[2]

@@ -15,7 +15,15 @@ beam-like robots (arms along ±x: θ₁ bends an arm about y, without limit, so
 the tip can turn past 270°) and the polar angle about the robot's centre for
 radial robots (each arm bends about its own tangential axis). The angles are
 singular only where d lies along the frame's second axis (θ₀ = ±90°: an arm
-twisted by 90° about its own axis), which the robots here never reach.
+twisted by 90° about its own axis), which the robots here never reach. A
+free body (nothing holds it) has a constant frame angle instead
+(:func:`free_frame_roll`): its hub tilts as a whole, which the polar frame
+cannot represent (the angles of a rigid tilt would wind about the centre);
+its arms bend about axes at most |sin(β − γ)| from the frame's second axis. A
+body placed by a rotation Q (``[initial]``, :mod:`magfem.mechanics.pose`)
+measures its directors from the placed frame, d = Q R_α (…): θ = 0 is its
+placed normal Q e_z, so an upright robot (Q turning e_z into the horizontal)
+starts as far from the singularity as a flat one.
 
 Strains (reference mid-surface flat, in the xy plane; F₀ = ∂φ/∂(x, y) the
 3×2 surface deformation gradient of φ = X + u, ∇d its 3×2 director gradient):
@@ -59,6 +67,7 @@ model", for the cost against the solid and the element choice).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -75,6 +84,7 @@ from magfem.mechanics.models.base import (
     Model,
     ModelInputs,
     midsurface_sides,
+    nodal_metadata,
 )
 from magfem.mechanics.models.supports import (
     clamped_entities,
@@ -82,6 +92,7 @@ from magfem.mechanics.models.supports import (
     fixed_point_dofs,
     is_free,
 )
+from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec
 
 __all__ = [
@@ -90,6 +101,7 @@ __all__ = [
     "ShellModel",
     "director",
     "director_jacobian",
+    "free_frame_roll",
     "shell_energy_density",
 ]
 
@@ -97,22 +109,32 @@ SHEAR_CORRECTION = 5.0 / 6.0
 """Transverse shear correction factor of a homogeneous plate (Reissner)."""
 
 
-def director(theta: Any, frame: Any | None = None) -> Any:
+def _placed(vec: list[Any], pose: Any | None) -> list[Any]:
+    """The components of Q v for the placement rotation Q (3×3 floats), or v when None."""
+    if pose is None:
+        return vec
+    Q = np.asarray(pose, dtype=float)
+    rows = [[(float(Q[i, k]), vec[k]) for k in range(3) if abs(Q[i, k]) > 1e-15] for i in range(3)]
+    return [sum(q * v for q, v in row) for row in rows]
+
+
+def director(theta: Any, frame: Any | None = None, pose: Any | None = None) -> Any:
     """Director d(θ) (UFL 3-vector) of the angles θ = (θ₀, θ₁) in the frame rotated by α.
 
     Args:
         theta: UFL 2-vector of angles (rad).
         frame: α (rad, UFL scalar) or None for α = 0.
+        pose: the placement rotation Q (3×3 floats) or None for the identity.
     """
     c0 = ufl.cos(theta[0])
-    d1, d2, d3 = ufl.sin(theta[1]) * c0, -ufl.sin(theta[0]), ufl.cos(theta[1]) * c0
-    if frame is None:
-        return ufl.as_vector([d1, d2, d3])
-    ca, sa = ufl.cos(frame), ufl.sin(frame)
-    return ufl.as_vector([ca * d1 - sa * d2, sa * d1 + ca * d2, d3])
+    d = [ufl.sin(theta[1]) * c0, -ufl.sin(theta[0]), ufl.cos(theta[1]) * c0]
+    if frame is not None:
+        ca, sa = ufl.cos(frame), ufl.sin(frame)
+        d = [ca * d[0] - sa * d[1], sa * d[0] + ca * d[1], d[2]]
+    return ufl.as_vector(_placed(d, pose))
 
 
-def director_jacobian(theta: Any, frame: Any | None = None) -> Any:
+def director_jacobian(theta: Any, frame: Any | None = None, pose: Any | None = None) -> Any:
     """∂d/∂θ (UFL 3×2 matrix) of :func:`director`: columns ∂d/∂θ₀ and ∂d/∂θ₁."""
     s0, c0, s1, c1 = ufl.sin(theta[0]), ufl.cos(theta[0]), ufl.sin(theta[1]), ufl.cos(theta[1])
     rows = [[-s1 * s0, c1 * c0], [-c0, 0.0], [-c1 * s0, -s1 * c0]]
@@ -124,7 +146,8 @@ def director_jacobian(theta: Any, frame: Any | None = None) -> Any:
             [sa * r0[j] + ca * r1[j] for j in range(2)],
             rows[2],
         ]
-    return ufl.as_matrix(rows)
+    columns = [_placed([rows[i][j] for i in range(3)], pose) for j in range(2)]
+    return ufl.as_matrix([[columns[0][i], columns[1][i]] for i in range(3)])
 
 
 def _in_plane(grad3: Any) -> Any:
@@ -140,10 +163,10 @@ class ShellKinematics:
         membrane, bending, shear: e (2×2), k (2×2, 1/m), γ (2).
     """
 
-    def __init__(self, u: Any, theta: Any, frame: Any | None):
+    def __init__(self, u: Any, theta: Any, frame: Any | None, pose: Any | None = None):
         I3 = ufl.Identity(3)
         self.F0 = _in_plane(I3 + ufl.grad(u))
-        self.d = director(theta, frame)
+        self.d = director(theta, frame, pose)
         self.grad_d = _in_plane(ufl.grad(self.d))
         F0, G = self.F0, self.grad_d
         self.membrane = 0.5 * (F0.T * F0 - ufl.Identity(2))
@@ -173,10 +196,36 @@ def shell_energy_density(
     )
 
 
-def _frame_angle(robot: RobotMesh, center: Sequence[float]) -> Any | None:
-    """α(X): None when every arm runs along ±x, else the polar angle about ``center``."""
+def free_frame_roll(directions: Sequence[Sequence[float]]) -> float:
+    """Constant frame angle γ (rad, in [0, π)) of a free body with arms along ``directions``.
+
+    The γ of a 0.5° grid that keeps the arms furthest from the angles'
+    singularity: it minimises max_k |sin(β_k − γ)| over the arms' in-plane
+    angles β_k (an arm at β − γ = ±90° bent by 90° about its own cross axis
+    would put θ₀ at ±90°); the smallest such γ (0 for beams and plates).
+    """
+    beta = np.array([math.atan2(d[1], d[0]) for d in directions])
+    if beta.size == 0:
+        return 0.0
+    grid = np.radians(np.arange(0.0, 180.0, 0.5))
+    worst = np.max(np.abs(np.sin(beta[None, :] - grid[:, None])), axis=1)
+    return float(grid[int(np.argmin(worst + 1e-9 * np.arange(grid.size)))])
+
+
+def _frame_angle(robot: RobotMesh, center: Sequence[float], free: bool) -> Any | None:
+    """α(X): None when every arm runs along ±x; for a free body the constant of
+    :func:`free_frame_roll` (None when 0); else the polar angle about ``center``.
+
+    The polar frame turns with each arm of a robot whose hub is held; a free
+    hub tilts as a whole, which the polar frame would make a vortex of the
+    angles about the centre (θ ∝ (cos α, −sin α) for a rigid tilt): a
+    singular field P2 cannot carry.
+    """
     if all(abs(float(a.direction[1])) < 1e-12 for a in robot.arms):
         return None
+    if free:
+        roll = free_frame_roll([tuple(a.direction) for a in robot.arms])
+        return None if roll == 0.0 else roll
     X = ufl.SpatialCoordinate(robot.mesh)
     return ufl.atan2(X[1] - center[1], X[0] - center[0])
 
@@ -231,15 +280,20 @@ class ShellModel(Model):
         self.mass_density = self.rho * t
         self.rotary_inertia = self.rho * t**3 / 12.0
         self.magnetization = create_magnetization(inputs.material, robot, 3)
-        self.frame = _frame_angle(robot, inputs.body.center)
+        self.frame_center = tuple(inputs.body.center)
+        rotation = inputs.body.rotation
+        self.pose = None if rotation is None else np.asarray(rotation, dtype=float)
         self.X = ufl.SpatialCoordinate(domain)
         self.dx = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q})
+        nodal = nodal_metadata(domain, inputs.solver.degree, q)
+        self.dx_nodal = ufl.Measure("dx", domain=domain, metadata=nodal)
         self.face_offset = 0.5 * t  # the mesh is the mid-surface
         self.depth = 1.0
         self.displacement_bcs, angle_bcs = self._supports(inputs.environment, Vu, Vt)
         self.bcs = self.displacement_bcs + angle_bcs
         self.free_body = is_free(self.displacement_bcs, domain.comm)
-        kin = ShellKinematics(u, theta, self.frame)
+        self.frame = _frame_angle(robot, inputs.body.center, self.free_body)
+        kin = ShellKinematics(u, theta, self.frame, self.pose)
         self.strain_metrics = [kin.face_metric(-1.0, t), kin.face_metric(1.0, t)]
 
     def _supports(
@@ -258,14 +312,40 @@ class ShellModel(Model):
             bcs_u.append(fem.dirichletbc(np.zeros(3), fixed_point_dofs(env, Vu), Vu))
         return bcs_u, bcs_t
 
+    def place(self, motion: RigidMotion) -> None:
+        """:meth:`Model.place`, and the director rates of the spin: ḋ = ω × d at θ = 0.
+
+        At θ = 0, ḋ = Q R_α (θ̇₁, −θ̇₀, 0), so with w = Qᵀω (the spin in the
+        placed frame) θ̇₁ = w_y cos α − w_x sin α and θ̇₀ = w_x cos α + w_y sin α.
+        """
+        Q = np.eye(3) if self.pose is None else self.pose
+        if not np.allclose(Q, motion.R, atol=1e-12):
+            raise ValueError("ShellModel.place: the motion's rotation is not the model's pose")
+        super().place(motion)
+        rates = self.integrator.parts[1]
+        X = rates.u.function_space.tabulate_dof_coordinates()
+        alpha = np.zeros(len(X))
+        if isinstance(self.frame, float):
+            alpha[:] = self.frame
+        elif self.frame is not None:
+            cx, cy, _ = self.frame_center
+            alpha = np.arctan2(X[:, 1] - cy, X[:, 0] - cx)
+        w = Q.T @ motion.omega
+        ca, sa = np.cos(alpha), np.sin(alpha)
+        theta_rate = np.column_stack([w[0] * ca + w[1] * sa, w[1] * ca - w[0] * sa])
+        rates.v0.x.array[:] = theta_rate.ravel()
+        rates.u0.x.array[:] = 0.0
+        rates.u.x.array[:] = 0.0
+        rates.a0.x.array[:] = 0.0
+
     # --- energies and forces ----------------------------------------------------------------
 
     def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
-        kin = ShellKinematics(state[0], state[1], self.frame)
+        kin = ShellKinematics(state[0], state[1], self.frame, self.pose)
         return shell_energy_density(kin, self.mu, self.poisson, self.thickness) * self.dx
 
     def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
-        kin = ShellKinematics(state[0], state[1], self.frame)
+        kin = ShellKinematics(state[0], state[1], self.frame, self.pose)
         M = self.magnetization
         FM = kin.F0 * ufl.as_vector([M[0], M[1]]) + M[2] * kin.d
         return -self.thickness * ufl.dot(FM, flux(self.X + state[0]))
@@ -286,13 +366,18 @@ class ShellModel(Model):
         )
 
     def faces(
-        self, state: Sequence[Any], rates: Sequence[Any], surfaces: Sequence[str]
+        self,
+        state: Sequence[Any],
+        rates: Sequence[Any],
+        surfaces: Sequence[str],
+        *,
+        nodal: bool = False,
     ) -> list[Face]:
         disp, angles = state
-        d = director(angles, self.frame)
-        Jd = director_jacobian(angles, self.frame)  # 3×2
+        d = director(angles, self.frame, self.pose)
+        Jd = director_jacobian(angles, self.frame, self.pose)  # 3×2
         w_u, w_t = self.tests
-        dx = self.dx
+        dx = self.dx_nodal if nodal else self.dx
         out = []
         for s in midsurface_sides(surfaces, "shell"):
             h = s * 0.5 * self.thickness

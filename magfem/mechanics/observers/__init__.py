@@ -18,6 +18,7 @@ from magfem.mechanics.observers.arms import (
     midline_shape,
 )
 from magfem.mechanics.observers.base import Observer, PointEvaluator
+from magfem.mechanics.observers.body import BodyMotion, summarize_body
 from magfem.mechanics.observers.energies import Energies
 from magfem.mechanics.observers.field import AppliedField
 from magfem.mechanics.observers.strain import Strain, StrainProbe
@@ -43,6 +44,7 @@ __all__ = [
     "AngleUnwrapper",
     "AppliedField",
     "ArmAngles",
+    "BodyMotion",
     "Energies",
     "Midline",
     "MidlineProbe",
@@ -59,5 +61,6 @@ __all__ = [
     "max_over_window",
     "midline_points",
     "midline_shape",
+    "summarize_body",
     "summarize_midline",
 ]

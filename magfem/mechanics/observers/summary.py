@@ -17,6 +17,8 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
+from magfem.mechanics.observers.body import summarize_body
+
 __all__ = [
     "COLLAPSE_FOLDS",
     "COLLAPSE_TIP_NORMAL",
@@ -117,7 +119,8 @@ def history_summary(
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
     force; nan if none) and ``max_self_contact_force`` (N); and
-    :func:`summarize_midline`. Columns that are absent give no entry; blank
+    :func:`summarize_midline` and, for a free body, :func:`summarize_body`.
+    Columns that are absent give no entry; blank
     samples (nan) are skipped.
     """
     t = np.asarray(history["time"], dtype=float)
@@ -136,6 +139,7 @@ def history_summary(
                     max_over_window(t, values, start, end) if covered else math.nan
                 )
     out |= summarize_midline(history)
+    out |= summarize_body(history)
     for column, key in (("strain", "max_strain"), ("bending_strain", "max_bending_strain")):
         if column in history:
             out[key] = float(np.nanmax(history[column]))
