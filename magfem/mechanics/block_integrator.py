@@ -60,9 +60,11 @@ class BlockIntegrator:
         """v_{n+1} of the first part (UFL)."""
         return self.parts[0].velocity()
 
-    def potential_points(self) -> list[tuple[float, list[ufl.core.expr.Expr]]] | None:
+    def potential_points(
+        self, free_body: bool = False
+    ) -> list[tuple[float, list[ufl.core.expr.Expr]]] | None:
         """(weight, the state of every part) at the average vector field's points, or None."""
-        per_part = [p.potential_points() for p in self.parts]
+        per_part = [p.potential_points(free_body) for p in self.parts]
         first = per_part[0]
         if first is None:
             return None

@@ -177,7 +177,8 @@ class TimeIntegrator:
         rho_inf: spectral radius ρ∞ (ignored by ``newmark``/``quasi_static``).
         dt: initial step (s).
         average_forces: at ρ∞ = 1, average the potential's forces over the step
-            (:meth:`potential_points`); False keeps them at the midpoint.
+            (``on``), keep them at the midpoint (``off``), or ``auto``: off for a
+            free body (:meth:`potential_points`).
 
     Attributes:
         u0, v0, a0: state at t_n (m, m/s, m/s²), same space as ``u``; during
@@ -196,7 +197,7 @@ class TimeIntegrator:
         *,
         rho_inf: float = 1.0,
         dt: float = 1.0,
-        average_forces: bool = True,
+        average_forces: str = "auto",
     ):
         self.u = u
         self.scheme = scheme
@@ -248,13 +249,18 @@ class TimeIntegrator:
         a = (1.0 - p.alpha_m) * self.acceleration() + p.alpha_m * self.a0
         return u, v, a
 
-    def potential_points(self) -> list[tuple[float, list[ufl.core.expr.Expr]]] | None:
+    def potential_points(
+        self, free_body: bool = False
+    ) -> list[tuple[float, list[ufl.core.expr.Expr]]] | None:
         """(weight, [u_n + s (u − u_n)]) at the Gauss points s of the average vector field.
 
-        None unless :attr:`conserving` and ``average_forces``: the potential's forces then
-        act at the stage point (the implicit midpoint rule at ρ∞ = 1).
+        None unless :attr:`conserving` and ``average_forces`` is on (or ``auto``
+        and the body is held: a free body keeps the midpoint rule, which
+        conserves its momentum and angular momentum): the potential's forces
+        then act at the stage point.
         """
-        if not (self.conserving and self.average_forces):
+        mode = self.average_forces
+        if not self.conserving or mode == "off" or (mode == "auto" and free_body):
             return None
         x, w = np.polynomial.legendre.leggauss(AVERAGE_POINTS)
         return [

@@ -131,7 +131,8 @@ def build_problem(model: Model, loads: Sequence[Load], contacts: Sequence[Contac
     ]
     problem = Problem(model, list(loads), list(contacts), None, {}, internal, generic)
     states, rates, accelerations = model.stage()
-    averaged = model.integrator.potential_points() if model.integrator.dynamic else None
+    dynamic = model.integrator.dynamic
+    averaged = model.integrator.potential_points(model.free_body) if dynamic else None
     forms = problem._balance(states, rates, accelerations, averaged)
     if model.integrator.dynamic:
         forms = problem._minus_contacts(forms, *model.end_of_step())

@@ -177,13 +177,13 @@ class TimeSpec:
     scheme: str = option("generalized_alpha", SCHEMES)
     rho_inf: float = quantity(0.5, "", ge=0.0, le=1.0, doc="spectral radius at infinite frequency")
     adaptive: bool = True
-    average_forces: bool = field(
-        default=True,
-        metadata={
-            "doc": "rho_inf = 1: the potential's forces averaged over the step (energy conserved, "
-            "also when the step changes); false: at the midpoint (more accurate for fast "
-            "rotations of stiff free bodies)"
-        },
+    average_forces: str = option(
+        "auto",
+        ("auto", "on", "off"),
+        doc="rho_inf = 1: on averages the potential's forces over the step (energy conserved, "
+        "also when the step changes), off keeps them at the midpoint (momentum and angular "
+        "momentum conserved, smaller phase error in fast rotations); auto: off for a free "
+        "body, on otherwise",
     )
     cut_factor: float = quantity(0.5, "", gt=0.0, lt=1.0, doc="step multiplier after a failure")
     grow_factor: float = quantity(1.5, "", ge=1.0, le=4.0, doc="step multiplier after easy steps")
