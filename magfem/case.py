@@ -14,6 +14,7 @@ table           dataclass                               owner module
 ``[solver]``    ``magfem.mechanics.spec.SolverSpec``    mechanics
 ``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
 ``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
+``[fluid]``     ``magfem.mechanics.spec.FluidSpec``     mechanics
 ``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
 ``[[loads]]``   a spec class per ``kind``               ``magfem.mechanics.loads``
 ``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
@@ -48,6 +49,7 @@ from magfem.mechanics.loads import LoadSpec
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
+    FluidSpec,
     MaterialSpec,
     OutputSpec,
     SolverSpec,
@@ -79,6 +81,7 @@ class Case:
     solver: SolverSpec = _field(default_factory=SolverSpec)
     contact: ContactSpec = _field(default_factory=ContactSpec)
     environment: EnvironmentSpec = _field(default_factory=EnvironmentSpec)
+    fluid: FluidSpec | None = None
     output: OutputSpec = _field(default_factory=OutputSpec)
     loads: tuple[LoadSpec, ...] = ()
     contacts: tuple[ContactKindSpec, ...] = ()

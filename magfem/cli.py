@@ -30,7 +30,7 @@ from magfem.field.run import run_field
 from magfem.geometry.export import export_robot_mesh
 from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.parallel import rank0_print
-from magfem.pipeline import simulate
+from magfem.pipeline import describe_fluid_of, simulate
 from magfem.report import build_report
 from magfem.sweep import parse_param, run_sweep
 
@@ -60,6 +60,7 @@ def _summary(case: Case) -> str:
     resolution = case.resolution()
     if resolution:
         lines.append(f"bending   {resolution}")
+    lines += describe_fluid_of(case)
     return "\n".join(lines)
 
 

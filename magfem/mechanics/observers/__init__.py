@@ -30,6 +30,7 @@ from magfem.mechanics.observers.summary import (
     max_over_window,
     summarize_midline,
 )
+from magfem.mechanics.observers.swimming import Swimming, summarize_swimming
 
 __all__ = [
     "ACTIVE_CURVATURE_FRACTION",
@@ -51,6 +52,7 @@ __all__ = [
     "PointEvaluator",
     "Strain",
     "StrainProbe",
+    "Swimming",
     "arm_angle_points",
     "bending_angle",
     "bending_speed",
@@ -60,4 +62,5 @@ __all__ = [
     "midline_points",
     "midline_shape",
     "summarize_midline",
+    "summarize_swimming",
 ]

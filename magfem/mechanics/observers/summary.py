@@ -17,6 +17,8 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
+from magfem.mechanics.observers.swimming import summarize_swimming
+
 __all__ = [
     "COLLAPSE_FOLDS",
     "COLLAPSE_TIP_NORMAL",
@@ -116,9 +118,9 @@ def history_summary(
     (nan when the run ends before the window does); ``max_strain``,
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
-    force; nan if none) and ``max_self_contact_force`` (N); and
-    :func:`summarize_midline`. Columns that are absent give no entry; blank
-    samples (nan) are skipped.
+    force; nan if none) and ``max_self_contact_force`` (N);
+    :func:`summarize_midline` and, in a fluid, :func:`summarize_swimming`.
+    Columns that are absent give no entry; blank samples (nan) are skipped.
     """
     t = np.asarray(history["time"], dtype=float)
     out: dict[str, float] = {}
@@ -148,6 +150,7 @@ def history_summary(
         out["max_energy_density"] = float(np.nanmax(history["energy_density"]))
         if frequency:
             out["power_density"] = frequency * out["max_energy_density"]
+    out |= summarize_swimming(history, frequency)
     return out
 
 
