@@ -17,12 +17,17 @@ times the depth:
   over the wetted faces;
 * ``cost_of_transport``: fluid_work / (m g |swim_distance|), the energy given
   to the fluid per weight and distance (dimensionless; nan before any
-  displacement).
+  displacement);
+* 3D bodies swimming horizontally: ``roll`` and ``pitch`` (rad, unwrapped),
+  the rotation about e of the body's mean lateral material axis
+  ∫ F l / ∫ 1 (l = e_z × e) and about l of its mean axis ∫ F e / ∫ 1: a
+  propeller's twist, a swimmer's nose up or down.
 
 Summary (:func:`summarize_swimming`): the final distance and cost of
 transport, and over the last complete drive period the mean forward speed
 (distance gained over the period / period), the mean thrust and friction,
-and per arm the stroke amplitude, half the peak-to-peak tip angle.
+and per arm the stroke amplitude, half the peak-to-peak tip angle (and of
+the roll and pitch).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import ufl
 from mpi4py import MPI
 
 from magfem.mechanics.forms import assemble_scalars, compile_form
@@ -82,8 +88,18 @@ class Swimming(Observer):
         mass = [mass_density * dx]
         mass += [mass_density * position[i] * dx for i in range(gdim)]
         mass += [mass_density * velocity[i] * dx for i in range(gdim)]
+        self.axes = _axes(direction) if gdim == 3 else None
+        if self.axes is not None:
+            grad = ufl.grad(position)
+            e, lateral = self.axes
+            mass += [
+                ufl.dot(grad[i, :], ufl.as_vector(axis)) * dx
+                for axis in (lateral, e)
+                for i in range(3)
+            ]
         self.names = list(fluid_forms)
         self.forms = [compile_form(f) for f in mass + list(fluid_forms.values())]
+        self.angles = np.zeros(2)
         self.gdim, self.depth, self.comm = gdim, depth, comm
         self.nu, self.chord = kinematic_viscosity, chord
         self.start: npt.NDArray[np.float64] | None = None
@@ -104,6 +120,7 @@ class Swimming(Observer):
             "fluid_work",
             "fluid_reynolds",
             "cost_of_transport",
+            *(["roll", "pitch"] if self.axes is not None else []),
         ]
 
     def observe(self, t: float) -> dict[str, float]:
@@ -112,7 +129,11 @@ class Swimming(Observer):
         mass = values[0]
         com = np.asarray(values[1 : 1 + g]) / mass
         velocity = np.asarray(values[1 + g : 1 + 2 * g]) / mass
-        fluid = dict(zip(self.names, values[1 + 2 * g :], strict=True))
+        rest = values[1 + 2 * g :]
+        if self.axes is not None:
+            self._turn(np.asarray(rest[:6]))
+            rest = rest[6:]
+        fluid = dict(zip(self.names, rest, strict=True))
         if self.start is None:
             self.start = com.copy()
         distance = float(np.dot(com - self.start, self.direction))
@@ -135,8 +156,34 @@ class Swimming(Observer):
         rms = math.sqrt(max(fluid["fluid_normal_speed2"], 0.0) / fluid["fluid_area"])
         row["fluid_reynolds"] = rms * self.chord / self.nu
         weight = mass * self.depth * STANDARD_WEIGHT_GRAVITY
-        row["cost_of_transport"] = self.work / (weight * abs(distance)) if distance else math.nan
+        moved = abs(distance) > 1e-6 * self.chord
+        row["cost_of_transport"] = self.work / (weight * abs(distance)) if moved else math.nan
+        if self.axes is not None:
+            row["roll"], row["pitch"] = float(self.angles[0]), float(self.angles[1])
         return row
+
+    def _turn(self, images: npt.NDArray[np.float64]) -> None:
+        """Update the unwrapped (roll, pitch) from the mean images of l and e."""
+        e, lateral = self.axes  # type: ignore[misc]
+        up = np.array([0.0, 0.0, 1.0])
+        ml, me = images[:3], images[3:]
+        new = np.array(
+            [
+                math.atan2(float(ml @ up), float(ml @ lateral)),
+                math.atan2(float(me @ up), float(me @ e)),
+            ]
+        )
+        self.angles += (new - self.angles + math.pi) % (2 * math.pi) - math.pi
+
+
+def _axes(direction: Sequence[float]) -> tuple[Any, Any] | None:
+    """(e, l) of a horizontal swimming direction (unit 3-vectors), or None when e is vertical."""
+    e = np.asarray(direction, dtype=float)
+    e = e - e[2] * np.array([0.0, 0.0, 1.0])
+    if np.linalg.norm(e) < 1e-6 * np.linalg.norm(direction):
+        return None
+    e /= np.linalg.norm(e)
+    return e, np.cross([0.0, 0.0, 1.0], e)
 
 
 def _last_period(t: npt.NDArray[np.float64], frequency: float | None) -> Any:
@@ -155,7 +202,8 @@ def summarize_swimming(
 
     ``swim_distance`` (m), ``cost_of_transport``, and over the last complete
     period of the drive (nan without one): ``swim_speed`` (m/s),
-    ``mean_thrust``, ``mean_friction`` (N), ``stroke_amplitude_<arm>`` (rad).
+    ``mean_thrust``, ``mean_friction`` (N), ``stroke_amplitude_<arm>`` and
+    ``stroke_amplitude_roll``/``_pitch`` (rad).
     """
     if "swim_distance" not in history:
         return {}
@@ -176,7 +224,8 @@ def summarize_swimming(
     for column, key in (("fluid_thrust", "mean_thrust"), ("fluid_friction", "mean_friction")):
         out[key] = float(np.trapezoid(np.asarray(history[column])[window], tw) / span)
     for column, values in history.items():
-        if column.startswith("angle_"):
+        if column.startswith("angle_") or column in ("roll", "pitch"):
             seen = np.asarray(values)[window]
-            out[f"stroke_amplitude_{column[6:]}"] = float(0.5 * (seen.max() - seen.min()))
+            name = column.removeprefix("angle_")
+            out[f"stroke_amplitude_{name}"] = float(0.5 * (seen.max() - seen.min()))
     return out
