@@ -291,7 +291,32 @@ def measured_frequency(
     expected: float,
     amplitude: float = 1e-3,
 ) -> tuple[Simulation, float]:
-    """(simulation, first bending frequency in Hz) of the unmagnetised cantilever, modal push.
+    """(simulation, first bending frequency in Hz) of :func:`free_vibration`."""
+    sim, history = free_vibration(
+        comm,
+        model=model,
+        size=size,
+        width=width,
+        plane=plane,
+        expected=expected,
+        amplitude=amplitude,
+    )
+    return sim, free_vibration_frequency(history["time"], history["angle_arm"])
+
+
+def free_vibration(
+    comm: MPI.Comm,
+    *,
+    model: str,
+    size: float,
+    width: float,
+    plane: str,
+    expected: float,
+    amplitude: float = 1e-3,
+    periods: float = 2.2,
+    loads: tuple[dict[str, Any], ...] = (),
+) -> tuple[Simulation, dict[str, Any]]:
+    """(simulation, history) of the unmagnetised cantilever's first mode after a modal push.
 
     The push is the velocity of the first mode with Kirchhoff kinematics:
     v_z = A φ₁(x), v_x = −(z − h/2) A φ₁'(x), A = ``amplitude`` (m/s; 1 mm/s
@@ -299,7 +324,8 @@ def measured_frequency(
     v_z on its mid-surface and the director rate θ̇₁ = −A φ₁' instead, with
     the mode of its rod (clamped at the inset patch edge, :data:`magfem.
     geometry.robot_mesh.SHELL_CLAMP_INSET`). Generalized-α with ρ∞ = 1 (no
-    numerical dissipation) at Δt = T/80 for 2.2 periods T = 1/``expected``.
+    numerical dissipation) at Δt = T/80 for ``periods`` periods T = 1/``expected``;
+    ``loads`` are ``[[loads]]`` tables.
     """
     from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
 
@@ -312,7 +338,8 @@ def measured_frequency(
         name="frequency",
         remanence=0.0,
         size_across=min(size, width) if model == "surface" else None,
-        time={"end": 2.2 * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
+        time={"end": periods * period, "step": period / 80, "adaptive": False, "rho_inf": 1.0},
+        loads=list(loads),
     )
     sim = build_simulation(case, comm)
     vertical = sim.gdim - 1
@@ -335,8 +362,7 @@ def measured_frequency(
             return rate
 
         sim.integrator.parts[1].v0.interpolate(turn)
-    history = sim.run(progress=False).history
-    return sim, free_vibration_frequency(history["time"], history["angle_arm"])
+    return sim, sim.run(progress=False).history
 
 
 def global_dofs(sim: Simulation) -> int:
