@@ -15,6 +15,7 @@ table           dataclass                               owner module
 ``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
 ``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
 ``[initial]``   ``magfem.mechanics.pose.InitialSpec``   mechanics
+``[fluid]``     ``magfem.mechanics.spec.FluidSpec``     mechanics
 ``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
 ``[[loads]]``   a spec class per ``kind``               ``magfem.mechanics.loads``
 ``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
@@ -54,6 +55,7 @@ from magfem.mechanics.pose import InitialSpec
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
+    FluidSpec,
     MaterialSpec,
     OutputSpec,
     SolverSpec,
@@ -87,6 +89,7 @@ class Case:
     contact: ContactSpec = _field(default_factory=ContactSpec)
     environment: EnvironmentSpec = _field(default_factory=EnvironmentSpec)
     initial: InitialSpec = _field(default_factory=InitialSpec)
+    fluid: FluidSpec | None = None
     output: OutputSpec = _field(default_factory=OutputSpec)
     loads: tuple[LoadSpec, ...] = ()
     contacts: tuple[ContactKindSpec, ...] = ()

@@ -44,7 +44,7 @@ from magfem.geometry.export import export_robot_mesh
 from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.mechanics.solver_options import check_petsc_options
 from magfem.parallel import configure_logging, root_call
-from magfem.pipeline import simulate
+from magfem.pipeline import describe_fluid_of, simulate
 from magfem.provenance import provenance
 from magfem.report import build_report
 from magfem.rundir import prepare_run_directory
@@ -88,6 +88,7 @@ def _summary(case: Case) -> str:
     choice = resolve_model(case)[1]
     if choice is not None:
         lines.append(f"model     {choice}")
+    lines += describe_fluid_of(case)
     return "\n".join(lines)
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
+import ufl
 from mpi4py import MPI
 
 from magfem.accuracy import resolve_model
@@ -31,6 +32,12 @@ from magfem.mechanics.animation import MotionSnapshots
 from magfem.mechanics.checkpoint import Checkpointer, RunControl, check_resumable, read_checkpoint
 from magfem.mechanics.contacts import Contact, GroundContact, SelfContact
 from magfem.mechanics.loads import GravityLoad, Load, MagneticLoad
+from magfem.mechanics.loads.fluid import FluidLoad
+from magfem.mechanics.loads.hydrodynamics import (
+    FluidCoefficients,
+    describe_fluid,
+    fluid_coefficients,
+)
 from magfem.mechanics.models import MODELS, BodySetup, Model, ModelInputs
 from magfem.mechanics.observers import (
     AppliedField,
@@ -41,6 +48,7 @@ from magfem.mechanics.observers import (
     Observer,
     Strain,
     StrainProbe,
+    Swimming,
     bonded_length,
 )
 from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
@@ -52,7 +60,14 @@ from magfem.parallel import root_call
 from magfem.rundir import CHECKPOINT
 from magfem.sanity import SUPPORT_FRACTION, SwitchWatch
 
-__all__ = ["build_simulation", "create_writers", "drive_frequency", "simulate"]
+__all__ = [
+    "build_simulation",
+    "create_writers",
+    "describe_fluid_of",
+    "drive_frequency",
+    "fluid_coefficients_of",
+    "simulate",
+]
 
 LOG = logging.getLogger("magfem.pipeline")
 
@@ -64,6 +79,59 @@ def drive_frequency(spec: FieldSpec) -> float | None:
         if frequency:
             return float(frequency)
     return None
+
+
+def fluid_coefficients_of(case: Case) -> FluidCoefficients | None:
+    """The fluid model's coefficients of ``case`` (``[fluid]``), or None without a fluid.
+
+    The chord defaults to the robot's area over its arms' total length (an
+    arm's mean width), the characteristic frequency to the drive's (0, steady
+    flow, without a periodic source).
+    """
+    spec = case.fluid
+    if spec is None:
+        return None
+    chord = spec.chord
+    if chord is None:
+        outline = outline_of(case.robot)
+        length = sum(arm.length for arm in outline.arms) or outline.scale
+        chord = outline.area / length
+    frequency = spec.frequency
+    if frequency is None:
+        frequency = drive_frequency(case.field) or 0.0
+    return fluid_coefficients(
+        spec.fluid_density,
+        spec.fluid_viscosity,
+        chord,
+        frequency=frequency,
+        friction_length=spec.friction_length,
+        added_mass_coefficient=spec.added_mass_coefficient,
+        drag_coefficient=spec.drag_coefficient,
+    )
+
+
+def describe_fluid_of(case: Case) -> list[str]:
+    """``magfem check``'s lines on ``[fluid]``: properties, coefficients, sources, regime."""
+    coefficients = fluid_coefficients_of(case)
+    if case.fluid is None or coefficients is None:
+        return []
+    spec, c = case.fluid, coefficients
+    outline = outline_of(case.robot)
+    amplitude = max((arm.length for arm in outline.arms), default=outline.scale)
+    current = float(np.linalg.norm(spec.current))
+    head = (
+        f"fluid     {spec.medium or 'fluid'}: rho = {c.density:.4g} kg/m^3, mu = "
+        f"{c.viscosity:.4g} Pa*s, current {current:.3g} m/s; chord b = {c.chord * 1e3:.3g} mm, "
+        f"frequency {c.frequency:g} Hz; buoyancy {c.density / case.material.density:.3g} of the "
+        "weight"
+    )
+    lines = describe_fluid(
+        c,
+        areal_mass=case.material.density * case.robot.thickness,
+        amplitude=amplitude,
+        current=current,
+    )
+    return [head, *("          " + line for line in lines)]
 
 
 def build_simulation(
@@ -107,10 +175,15 @@ def build_simulation(
         GravityLoad(case.environment.gravity, model),
         *(spec.build(model) for spec in case.loads),
     ]
+    fluid = _fluid_load(case, model)
+    if fluid is not None:
+        loads.append(fluid)
     problem = build_problem(model, loads, _contacts(case, model))
     _check_supports(model)
     t1 = time.perf_counter()
     observers = _observers(case, model, problem.energy_forms, field_model)
+    if fluid is not None:
+        observers.append(_swimming(case, model, fluid))
     return Simulation(
         problem,
         case.time,
@@ -136,6 +209,37 @@ def _place(case: Case, model: Model) -> None:
     px, py, pz = case.robot.position
     pivot = (px, py, pz + 0.5 * case.robot.thickness)
     model.place(initial_motion(case.initial, pivot, model.gdim))
+
+
+def _fluid_load(case: Case, model: Model) -> FluidLoad | None:
+    coefficients = fluid_coefficients_of(case)
+    if case.fluid is None or coefficients is None:
+        return None
+    return FluidLoad(
+        case.fluid,
+        coefficients,
+        model,
+        gravity=case.environment.gravity,
+        solid_density=case.material.density,
+    )
+
+
+def _swimming(case: Case, model: Model, fluid: FluidLoad) -> Swimming:
+    spec, coefficients = fluid.spec, fluid.coefficients
+    state, rates = model.accepted()
+    return Swimming(
+        mass_density=model.mass_density,
+        dx=model.dx,
+        position=ufl.SpatialCoordinate(model.robot.mesh) + model.displacement(state),
+        velocity=model.displacement(rates),
+        fluid_forms=fluid.observed_forms(model, spec.swim_direction),
+        direction=spec.swim_direction,
+        gdim=model.gdim,
+        kinematic_viscosity=coefficients.kinematic_viscosity,
+        chord=coefficients.chord,
+        depth=model.depth,
+        comm=model.robot.mesh.comm,
+    )
 
 
 def _contacts(case: Case, model: Model) -> list[Contact]:

@@ -3,10 +3,14 @@
 Total Lagrangian balance of momentum, weak form: for all test functions w
 vanishing on the supports,
 
-    R(q, q̇, q̈; t)[w] = inertia(q̈)[w] + δΠ(q)[w] − Σ_loads W_L(q, q̇)[w] − Σ_contacts W_C[w] = 0,
+    R(q, q̇, q̈; t)[w] = inertia(q̈)[w] + Σ_loads I_L(q, q̇, q̈)[w] + δΠ(q)[w]
+                       − Σ_loads W_L(q, q̇)[w] − Σ_contacts W_C[w] = 0,
     Π(q) = elastic energy(q) + Σ_conservative loads Π_L(q),
 
-with q the model's unknowns (:class:`~magfem.mechanics.models.base.Model`).
+with q the model's unknowns (:class:`~magfem.mechanics.models.base.Model`)
+and I_L the inertia-like work of a load (a fluid's added mass,
+:meth:`~magfem.mechanics.loads.base.Load.inertia`), taken at the stage
+acceleration like the body's own inertia.
 δΠ is ``ufl.derivative`` of the potential with respect to generic unknowns
 that are then replaced by the integrator's stage values, so the
 integrator's weights multiply the inertia and the internal force
@@ -90,6 +94,10 @@ class Problem:
         if model.integrator.dynamic:
             inertia = model.inertia_at(states, rates, accelerations)
             forms = [f + i for f, i in zip(forms, inertia, strict=True)]
+            for load in self.loads:
+                added = load.inertia(model, states, rates, accelerations)
+                if added is not None:
+                    forms = [f + a for f, a in zip(forms, added, strict=True)]
         for load in self.loads:
             work = load.work(model, states, rates)
             if work is not None:

@@ -6,7 +6,11 @@ A :class:`Load` contributes to the step residual in one of two ways:
   the residual takes its derivative together with the elastic energy's, and
   the history reports it as ``energy_<name>``;
 * a non-conservative load gives its virtual work at the stage point
-  (:meth:`Load.work`), e.g. drag, which depends on the velocity.
+  (:meth:`Load.work`), e.g. drag, which depends on the velocity;
+* a force proportional to the acceleration (the added mass of a fluid)
+  is written like the model's inertia (:meth:`Load.inertia`), so that the
+  integrator's weights apply to it as to the body's own mass (dynamic
+  schemes only).
 
 Time-dependent data (a field's waveform) are Constants or Functions that
 :meth:`Load.update` sets in place, so forms are compiled once.
@@ -51,6 +55,16 @@ class Load:
         self, model: Model, state: Sequence[Any], rates: Sequence[Any]
     ) -> list[ufl.Form] | None:
         """Virtual work per unknown at (state, rates), or None (conservative loads)."""
+        return None
+
+    def inertia(
+        self, model: Model, state: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
+    ) -> list[ufl.Form] | None:
+        """Virtual work of an inertia-like force at the accelerations, per unknown, or None.
+
+        Added to the residual with the model's own inertia (the sign of ρ ü·w):
+        an added mass m_a gives +∫ m_a a·w.
+        """
         return None
 
     def update(self, t: float, *, side: str, displacement: Any) -> None:

@@ -103,6 +103,9 @@ class Face:
             ``dx`` of a mid-surface), explicit quadrature degree.
         facets: local indices of the face's facets, or None when every node of
             the mesh is on it (a mid-surface).
+        normal: n da/dA, the current outward unit normal times the current
+            area per reference area (UFL gdim-vector; Nanson's formula), for
+            loads that depend on the face's orientation (pressure, fluid).
     """
 
     position: Any
@@ -110,6 +113,7 @@ class Face:
     work: Callable[[Any], list[Any]]
     measure: Any
     facets: npt.NDArray[np.int32] | None
+    normal: Any = None
 
 
 def sum_work(faces: Sequence[Face], tractions: Sequence[Any]) -> list[Any]:

@@ -148,6 +148,8 @@ class ContinuumModel(Model):
     ) -> list[Face]:
         measure, facets = self._contact_measure(surfaces, self.ds_nodal if nodal else self.ds)
         w = self.tests[0]
+        F = material.deformation_gradient(state[0])
+        N = ufl.FacetNormal(self.robot.mesh)
         return [
             Face(
                 position=self.X + state[0],
@@ -155,6 +157,7 @@ class ContinuumModel(Model):
                 work=lambda t: [ufl.inner(t, w) * measure],
                 measure=measure,
                 facets=facets,
+                normal=ufl.det(F) * ufl.inv(F).T * N,  # Nanson: n da = J F⁻ᵀ N dA
             )
         ]
 

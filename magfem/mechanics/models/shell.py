@@ -378,6 +378,8 @@ class ShellModel(Model):
         Jd = director_jacobian(angles, self.frame, self.pose)  # 3×2
         w_u, w_t = self.tests
         dx = self.dx_nodal if nodal else self.dx
+        F0 = _in_plane(ufl.Identity(3) + ufl.grad(disp))
+        area_normal = ufl.cross(F0[:, 0], F0[:, 1])  # n da/dA of the mid-surface
         out = []
         for s in midsurface_sides(surfaces, "shell"):
             h = s * 0.5 * self.thickness
@@ -393,6 +395,7 @@ class ShellModel(Model):
                     work=work,
                     measure=dx,
                     facets=None,
+                    normal=s * area_normal,
                 )
             )
         return out

@@ -31,6 +31,7 @@ from magfem.mechanics.observers.summary import (
     max_over_window,
     summarize_midline,
 )
+from magfem.mechanics.observers.swimming import Swimming, summarize_swimming
 
 __all__ = [
     "ACTIVE_CURVATURE_FRACTION",
@@ -53,6 +54,7 @@ __all__ = [
     "PointEvaluator",
     "Strain",
     "StrainProbe",
+    "Swimming",
     "arm_angle_points",
     "bending_angle",
     "bending_speed",
@@ -63,4 +65,5 @@ __all__ = [
     "midline_shape",
     "summarize_body",
     "summarize_midline",
+    "summarize_swimming",
 ]

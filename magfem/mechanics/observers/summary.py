@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from magfem.mechanics.observers.body import summarize_body
+from magfem.mechanics.observers.swimming import summarize_swimming
 
 __all__ = [
     "COLLAPSE_FOLDS",
@@ -119,9 +120,9 @@ def history_summary(
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
     force; nan if none) and ``max_self_contact_force`` (N); and
-    :func:`summarize_midline` and, for a free body, :func:`summarize_body`.
-    Columns that are absent give no entry; blank
-    samples (nan) are skipped.
+    :func:`summarize_midline`, for a free body :func:`summarize_body` and, in a
+    fluid, :func:`summarize_swimming`. Columns that are absent give no entry;
+    blank samples (nan) are skipped.
     """
     t = np.asarray(history["time"], dtype=float)
     out: dict[str, float] = {}
@@ -152,6 +153,7 @@ def history_summary(
         out["max_energy_density"] = float(np.nanmax(history["energy_density"]))
         if frequency:
             out["power_density"] = frequency * out["max_energy_density"]
+    out |= summarize_swimming(history, frequency)
     return out
 
 
