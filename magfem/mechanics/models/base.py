@@ -41,10 +41,18 @@ __all__ = [
     "FluxDensity",
     "Model",
     "ModelInputs",
+    "director_faces",
     "midsurface_sides",
     "nodal_metadata",
     "sum_work",
 ]
+
+State = Sequence[Any]
+"""One UFL expression per unknown: a state, its rates or its accelerations."""
+Names = Sequence[str]
+"""Names of faces, groups or sides (``[contact] surfaces``)."""
+Faces = list["Face"]
+"""A model's contact faces (:meth:`Model.faces`)."""
 
 FluxDensity = Callable[[Any], Any]
 """B_a(x) (T) as a UFL 3-vector of a current position x (UFL 3-vector, m)."""
@@ -148,6 +156,7 @@ class Model(ABC):
         bcs: Dirichlet conditions (homogeneous) of every unknown.
         displacement_bcs: the conditions on the displacement.
         free_body: nothing holds the body.
+        X: the reference coordinates (UFL ``SpatialCoordinate``, m).
         strain_metrics: UFL right Cauchy–Green tensors whose largest stretch is
             the largest strain, or None for FᵀF of the displacement.
     """
@@ -159,6 +168,7 @@ class Model(ABC):
     tests: list[Any]
     integrator: TimeIntegrator | BlockIntegrator
     dx: ufl.Measure
+    X: Any
     quadrature_degree: int
     mass_density: Any
     face_offset: float
@@ -240,14 +250,7 @@ class Model(ABC):
         """Kinetic energy (J; J/m for strips) at the given rates."""
 
     @abstractmethod
-    def faces(
-        self,
-        state: Sequence[Any],
-        rates: Sequence[Any],
-        surfaces: Sequence[str],
-        *,
-        nodal: bool = False,
-    ) -> list[Face]:
+    def faces(self, state: State, rates: State, surfaces: Names, *, nodal: bool = False) -> Faces:
         """The contact faces named by ``surfaces`` (``"all"``, groups or sides) at a state.
 
         ``nodal``: integrate with the Gauss–Lobatto points of the displacement's
@@ -351,3 +354,41 @@ def midsurface_sides(names: Sequence[str], model: str) -> list[float]:
     if "all" in names:
         return [-1.0, 1.0]
     return [s for s in (-1.0, 1.0) if any(_SIDES.get(n) == s for n in names)]
+
+
+def director_faces(
+    model: Model,
+    disp: Any,
+    rates: State,
+    director: Any,
+    jacobian: Any,
+    sides: Sequence[float],
+    measure: Any,
+    area_normal: Any = None,
+) -> Faces:
+    """The faces at ±t/2 along a director of a mid-surface or midline model (shell, rod).
+
+    Face points x = X + u + h d (h = ±t/2) move as u̇ + h (∂d/∂θ) θ̇; a traction t
+    works on δu and, through the lever h ∂d/∂θ, on δθ. ``area_normal``: the
+    mid-surface's n da/dA (signed per side), or None.
+    """
+    w_u, w_t = model.tests
+    out = []
+    for side in sides:
+        h = side * 0.5 * model.thickness
+        lever = h * jacobian
+
+        def work(t: Any, lever: Any = lever) -> list[Any]:
+            return [ufl.dot(t, w_u) * measure, ufl.dot(lever.T * t, w_t) * measure]
+
+        out.append(
+            Face(
+                position=model.X + disp + h * director,
+                velocity=rates[0] + lever * rates[1],
+                work=work,
+                measure=measure,
+                facets=None,
+                normal=None if area_normal is None else side * area_normal,
+            )
+        )
+    return out

@@ -29,9 +29,12 @@ from magfem.config import CaseError
 from magfem.mechanics.models.base import (
     MODELS,
     Face,
+    Faces,
     FluxDensity,
     Model,
     ModelInputs,
+    Names,
+    State,
     nodal_metadata,
     time_integrator,
 )
@@ -138,14 +141,7 @@ class ContinuumModel(Model):
     def kinetic_energy(self, rates: Sequence[Any]) -> ufl.Form:
         return 0.5 * self.rho * ufl.dot(rates[0], rates[0]) * self.dx
 
-    def faces(
-        self,
-        state: Sequence[Any],
-        rates: Sequence[Any],
-        surfaces: Sequence[str],
-        *,
-        nodal: bool = False,
-    ) -> list[Face]:
+    def faces(self, state: State, rates: State, surfaces: Names, *, nodal: bool = False) -> Faces:
         measure, facets = self._contact_measure(surfaces, self.ds_nodal if nodal else self.ds)
         w = self.tests[0]
         F = material.deformation_gradient(state[0])

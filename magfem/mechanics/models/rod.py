@@ -68,10 +68,13 @@ from magfem.config import CaseError
 from magfem.geometry.rod_mesh import HUB_STIFFENING
 from magfem.mechanics.models.base import (
     MODELS,
-    Face,
+    Faces,
     FluxDensity,
     Model,
     ModelInputs,
+    Names,
+    State,
+    director_faces,
     midsurface_sides,
 )
 from magfem.mechanics.models.rod_section import (
@@ -346,36 +349,12 @@ class RodModel(Model):
             )
         super().place(motion)
 
-    def faces(
-        self,
-        state: Sequence[Any],
-        rates: Sequence[Any],
-        surfaces: Sequence[str],
-        *,
-        nodal: bool = False,
-    ) -> list[Face]:
+    def faces(self, state: State, rates: State, surfaces: Names, *, nodal: bool = False) -> Faces:
         """The rod's bottom and top faces; ``nodal`` does not apply (line cells: one rule)."""
         disp, angles = state
         th = ufl.variable(angles)
         normal = RodKinematics(disp, th, self.frame).directors[2]
         lever = ufl.diff(normal, th)  # ∂d₃/∂θ, 3×3
         d3 = rotation(angles) * ufl.as_vector([0.0, 0.0, 1.0])  # R₀E₃ = +z
-        w_u, w_t = self.tests
-        measure = self.face_measure
-        out = []
-        for side in midsurface_sides(surfaces, "rod"):
-            h = side * 0.5 * self.thickness
-
-            def work(t: Any, h: float = h) -> list[Any]:
-                return [ufl.dot(t, w_u) * measure, ufl.dot(h * lever.T * t, w_t) * measure]
-
-            out.append(
-                Face(
-                    position=self.X + disp + h * d3,
-                    velocity=rates[0] + h * lever * rates[1],
-                    work=work,
-                    measure=measure,
-                    facets=None,
-                )
-            )
-        return out
+        sides = midsurface_sides(surfaces, "rod")
+        return director_faces(self, disp, rates, d3, lever, sides, self.face_measure)

@@ -79,10 +79,13 @@ from magfem import material
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.models.base import (
     MODELS,
-    Face,
+    Faces,
     FluxDensity,
     Model,
     ModelInputs,
+    Names,
+    State,
+    director_faces,
     midsurface_sides,
     nodal_metadata,
 )
@@ -365,37 +368,12 @@ class ShellModel(Model):
             * (self.dx)
         )
 
-    def faces(
-        self,
-        state: Sequence[Any],
-        rates: Sequence[Any],
-        surfaces: Sequence[str],
-        *,
-        nodal: bool = False,
-    ) -> list[Face]:
+    def faces(self, state: State, rates: State, surfaces: Names, *, nodal: bool = False) -> Faces:
         disp, angles = state
         d = director(angles, self.frame, self.pose)
         Jd = director_jacobian(angles, self.frame, self.pose)  # 3×2
-        w_u, w_t = self.tests
         dx = self.dx_nodal if nodal else self.dx
         F0 = _in_plane(ufl.Identity(3) + ufl.grad(disp))
         area_normal = ufl.cross(F0[:, 0], F0[:, 1])  # n da/dA of the mid-surface
-        out = []
-        for s in midsurface_sides(surfaces, "shell"):
-            h = s * 0.5 * self.thickness
-            lever = h * Jd  # ∂x/∂θ: the face point's virtual displacement is δu + h Jd δθ
-
-            def work(t: Any, lever: Any = lever) -> list[Any]:
-                return [ufl.dot(t, w_u) * dx, ufl.dot(lever.T * t, w_t) * dx]
-
-            out.append(
-                Face(
-                    position=self.X + disp + h * d,  # the reference face is at X + h e_z
-                    velocity=rates[0] + h * Jd * rates[1],
-                    work=work,
-                    measure=dx,
-                    facets=None,
-                    normal=s * area_normal,
-                )
-            )
-        return out
+        sides = midsurface_sides(surfaces, "shell")
+        return director_faces(self, disp, rates, d, Jd, sides, dx, area_normal)
