@@ -51,7 +51,14 @@ from magfem.mechanics.observers import (
     Swimming,
     bonded_length,
 )
-from magfem.mechanics.output import AnglePlotWriter, CsvWriter, MotionWriter, VtxWriter, Writer
+from magfem.mechanics.output import (
+    AnglePlotWriter,
+    CsvHistory,
+    CsvWriter,
+    MotionWriter,
+    VtxWriter,
+    Writer,
+)
 from magfem.mechanics.pose import initial_motion
 from magfem.mechanics.problem import build_problem
 from magfem.mechanics.series import VtuSeries
@@ -330,7 +337,8 @@ def create_writers(
     paths: dict[str, Path] = {}
     if out.csv:
         paths["csv"] = outdir / "history.csv"
-        writers.append(CsvWriter(paths["csv"], sim.columns(), comm, sim.column_units()))
+        csv = CsvHistory(paths["csv"], sim.columns(), comm, sim.column_units())
+        writers.append(CsvWriter(csv))
     if out.vtx_every > 0:
         paths["vtx"] = outdir / "displacement.bp"
         writers.append(VtxWriter(paths["vtx"], [sim.u], comm, out.vtx_every))

@@ -164,9 +164,6 @@ class SphereIronSpec(IronSpec):
     def min_feature(self) -> float:
         return 2 * self.radius
 
-    def tip_point(self) -> np.ndarray:
-        return np.asarray(self.center, dtype=float)
-
 
 @dataclass(frozen=True, kw_only=True)
 class RodIronSpec(IronSpec):

@@ -53,6 +53,7 @@ __all__ = [
     "TaylorFieldModel",
     "UniformFieldModel",
     "embed_points",
+    "taylor_flux",
     "term_values",
 ]
 
@@ -81,6 +82,15 @@ def term_values(term: Term, points: np.ndarray, t: float, order: int = 1) -> tup
     if order == 2:
         return P.vectors(B), P.tensors(G), P.tensors3(term.field.hessian(ref))
     return P.vectors(B), P.tensors(G)
+
+
+def taylor_flux(B: Any, G: Any, H: Any, d: Any, order: int) -> Any:
+    """B + G d (+ ½ H : d d at ``order`` 2, else H unused) at the offset d from the point (UFL)."""
+    flux = B + ufl.dot(G, d)
+    if order == 2:
+        i, j, k = ufl.indices(3)
+        flux = flux + 0.5 * ufl.as_vector(H[i, j, k] * d[j] * d[k], i)
+    return flux
 
 
 class FieldModel(ABC):
@@ -213,12 +223,8 @@ class TaylorFieldModel(FieldModel):
             raise RuntimeError("FieldModel.bind(domain) must be called before flux_density()")
         if self.order == 0:
             return self._c["B"]
-        d = x - self._c["x0"]
-        B = self._c["B"] + ufl.dot(self._c["G"], d)
-        if self.order == 2:
-            i, j, k = ufl.indices(3)
-            B = B + 0.5 * ufl.as_vector(self._c["H"][i, j, k] * d[j] * d[k], i)
-        return B
+        c = self._c
+        return taylor_flux(c["B"], c["G"], c.get("H"), x - c["x0"], self.order)
 
     def update(self, t: float, *, side: str = "right", u: Any = None) -> None:
         self.t, self.side = float(t), side
@@ -312,12 +318,8 @@ class NodalFieldModel(FieldModel):
     def flux_density(self, x: Any) -> Any:
         if not self._f:
             raise RuntimeError("FieldModel.bind(domain) must be called before flux_density()")
-        d = x - self._f["xn"]
-        B = self._f["B"] + ufl.dot(self._f["G"], d)
-        if self.order == 2:
-            i, j, k = ufl.indices(3)
-            B = B + 0.5 * ufl.as_vector(self._f["H"][i, j, k] * d[j] * d[k], i)
-        return B
+        f = self._f
+        return taylor_flux(f["B"], f["G"], f.get("H"), x - f["xn"], self.order)
 
     def update(self, t: float, *, side: str = "right", u: Any = None) -> None:
         self.t, self.side = float(t), side

@@ -37,17 +37,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from magfem.config import (
-    MISSING,
-    CaseError,
-    build_fields,
-    check_keys,
-    integer,
-    option,
-    quantity,
-    to_table,
-    vector,
-)
+from magfem import config
+from magfem.config import MISSING, CaseError, integer, option, quantity, vector
 from magfem.geometry.shapes import SHAPES, Shape
 
 __all__ = [
@@ -94,10 +85,12 @@ class RobotSpec:
             raise CaseError(key, shape, "unknown shape; shapes are " + ", ".join(SHAPES))
         shape_cls = SHAPES[shape]
         shape_keys = [f.name for f in dataclasses.fields(shape_cls)]  # type: ignore[arg-type]
-        check_keys(table, [*_COMMON, *shape_keys], where)
-        params = build_fields(shape_cls, {k: v for k, v in table.items() if k in shape_keys}, where)
+        config.check_keys(table, [*_COMMON, *shape_keys], where)
+        params = config.build_fields(
+            shape_cls, {k: v for k, v in table.items() if k in shape_keys}, where
+        )
         common = {k: v for k, v in table.items() if k in ("thickness", "position")}
-        return build_fields(cls, common, where, shape=shape, params=params)
+        return config.build_fields(cls, common, where, shape=shape, params=params)
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -125,7 +118,7 @@ class RobotSpec:
     def __to_table__(self) -> dict[str, Any]:
         """The flat ``[robot]`` table (SI numbers) that :func:`magfem.config.to_table` writes."""
         common = {"shape": self.shape, "thickness": self.thickness, "position": list(self.position)}
-        return common | to_table(self.params)
+        return common | config.to_table(self.params)
 
     @property
     def min_feature(self) -> float:

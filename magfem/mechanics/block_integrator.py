@@ -97,14 +97,8 @@ class BlockIntegrator:
         for p in self.parts:
             p.advance()
 
-    def set_state(
-        self,
-        t: float,
-        u: np.ndarray | None = None,
-        v: np.ndarray | None = None,
-        a: np.ndarray | None = None,
-    ) -> None:
-        """t_n of every part and (optionally) the first part's arrays."""
-        self.parts[0].set_state(t, u, v, a)
+    def set_state(self, t: float, **arrays: np.ndarray | None) -> None:
+        """t_n of every part and (optionally) the first part's ``u``, ``v``, ``a`` arrays."""
+        self.parts[0].set_state(t, **arrays)
         for p in self.parts[1:]:
             p.set_state(t)

@@ -208,15 +208,9 @@ def plot_angles(
 class CsvWriter(Writer):
     """The history CSV (:class:`CsvHistory`), one row per accepted step."""
 
-    def __init__(
-        self,
-        path: Path,
-        columns: Sequence[str],
-        comm: MPI.Comm,
-        units: Mapping[str, str] | None = None,
-    ):
-        self.path = Path(path)
-        self.csv = CsvHistory(path, columns, comm, units)
+    def __init__(self, csv: CsvHistory):
+        self.csv = csv
+        self.path = csv.path
 
     def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
         self.csv.write(row)

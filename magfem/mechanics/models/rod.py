@@ -66,17 +66,8 @@ from dolfinx import fem
 from magfem import material
 from magfem.config import CaseError
 from magfem.geometry.rod_mesh import HUB_STIFFENING
-from magfem.mechanics.models.base import (
-    MODELS,
-    Faces,
-    FluxDensity,
-    Model,
-    ModelInputs,
-    Names,
-    State,
-    director_faces,
-    midsurface_sides,
-)
+from magfem.mechanics.models import base
+from magfem.mechanics.models.base import Faces, Model, ModelInputs, Names, State
 from magfem.mechanics.models.rod_section import (
     SHEAR_CORRECTION,
     bending_energy,
@@ -156,7 +147,7 @@ class RodKinematics:
         return self.R0.T * rate_matrix(theta) * rate
 
 
-@MODELS.register("rod")
+@base.MODELS.register("rod")
 class RodModel(Model):
     """The rod of the module docstring on the robot's midline mesh.
 
@@ -294,7 +285,7 @@ class RodModel(Model):
         s = self.stiffening
         return s * stretch * self.dx_reduced + s * bend * self.dx
 
-    def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
+    def magnetic_energy_density(self, state: Sequence[Any], flux: base.FluxDensity) -> Any:
         kin = RodKinematics(state[0], state[1], self.frame)
         M = kin.R0.T * self.magnetization  # material components M̃ᵢ
         d = kin.directors
@@ -356,5 +347,5 @@ class RodModel(Model):
         normal = RodKinematics(disp, th, self.frame).directors[2]
         lever = ufl.diff(normal, th)  # ∂d₃/∂θ, 3×3
         d3 = rotation(angles) * ufl.as_vector([0.0, 0.0, 1.0])  # R₀E₃ = +z
-        sides = midsurface_sides(surfaces, "rod")
-        return director_faces(self, disp, rates, d3, lever, sides, self.face_measure)
+        sides = base.midsurface_sides(surfaces, "rod")
+        return base.director_faces(self, disp, rates, d3, lever, sides, self.face_measure)
