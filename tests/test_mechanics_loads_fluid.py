@@ -123,11 +123,10 @@ def test_cantilever_resonance_in_water_matches_sader(comm):
     assert f_r / plate < 0.25 and q < 2  # the fluid decides the answer
 
 
-def test_plate_started_impulsively_feels_the_added_mass_force(comm):
+@pytest.mark.parametrize("model", ["surface", "rod"])
+def test_plate_started_impulsively_feels_the_added_mass_force(comm, model):
     h = 50e-6
-    sim = build_simulation(
-        parse_case(_plate("surface", h, {"end": 2e-3, "step": 1e-3}, WATER)), comm
-    )
+    sim = build_simulation(parse_case(_plate(model, h, {"end": 2e-3, "step": 1e-3}, WATER)), comm)
     sim.initialise()
     a0 = sim.integrator.a0.x.array.reshape(-1, 3)[:, 2]
     m_a = math.pi / 4 * RHO_W * 2e-3

@@ -341,11 +341,16 @@ class RodModel(Model):
         super().place(motion)
 
     def faces(self, state: State, rates: State, surfaces: Names, *, nodal: bool = False) -> Faces:
-        """The rod's bottom and top faces; ``nodal`` does not apply (line cells: one rule)."""
+        """The rod's bottom and top faces; ``nodal`` does not apply (line cells: one rule).
+
+        Their area normal n da/dA is taken as ±d₃ (the rod's axial strain, below
+        1e-3 in bending, is left out of da/dA).
+        """
         disp, angles = state
         th = ufl.variable(angles)
         normal = RodKinematics(disp, th, self.frame).directors[2]
         lever = ufl.diff(normal, th)  # ∂d₃/∂θ, 3×3
         d3 = rotation(angles) * ufl.as_vector([0.0, 0.0, 1.0])  # R₀E₃ = +z
         sides = base.midsurface_sides(surfaces, "rod")
-        return base.director_faces(self, disp, rates, d3, lever, sides, self.face_measure)
+        measure = self.face_measure
+        return base.director_faces(self, disp, rates, d3, lever, sides, measure, d3)
