@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import dataclasses
 from pathlib import Path
 
@@ -49,6 +51,7 @@ def test_default_trapezoid_takes_the_shell():
     assert resolve_model(auto)[0].mesh.model == "surface"
 
 
+@pytest.mark.serial  # only rank 0 prints
 def test_rod_line_in_check(capsys):
     """``magfem check`` says whether the rod is adequate, and why."""
     assert main(["check", str(DEFAULT_CASE)]) == 0
