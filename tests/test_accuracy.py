@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import pytest
-
 import dataclasses
 from pathlib import Path
+
+import pytest
 
 from magfem.accuracy import SLENDERNESS, WIDTH_PER_BEND_LENGTH, resolve_model, rod_adequacy
 from magfem.case import load_case
