@@ -246,7 +246,8 @@ class NewtonSolver:
         # its ordering (nested dissection, PETSc LU's own default; MUMPS orders
         # externally) and its zero pivot
         pc.setFactorSolverType(chosen)
-        pc.setFactorOrdering("nd")
+        if "pc_factor_mat_ordering_type" not in user:
+            pc.setFactorOrdering("nd")
         if "pc_factor_zeropivot" not in user:
             pc.setFactorPivot(zeropivot=_factor_options(chosen)["pc_factor_zeropivot"])
         return chosen
