@@ -21,13 +21,15 @@ section normal d₁, turned into the material frame). Both run on one core;
 times are CPU seconds of the process (on a shared machine the wall time
 swings 2x with the other jobs; on an idle core the two agree) and exclude
 the one-off compilation (a warm-up run first). From the
-repository root (~6 min):
+repository root (~2 min; ``--split``: where magfem's 0.25 mm P3, Δt = 31.25 µs
+run spends its time, per step):
 
-    .venv/bin/python -m benchmarks.pyelastica_comparison
+    .venv/bin/python -m benchmarks.pyelastica_comparison [--split]
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from typing import Any
 
@@ -35,7 +37,9 @@ import numpy as np
 from mpi4py import MPI
 
 from benchmarks._common import Report
+from magfem.case import Case
 from magfem.mechanics.models.rod_section import torsion_constant
+from magfem.parallel import rank0_print
 from magfem.pipeline import build_simulation
 from verification import references as ref
 from verification import setups as vc
@@ -50,6 +54,8 @@ MAGFEM_LEVELS = [  # (size m, degree, step s); the last is the reference
     (1e-3, 2, 0.5e-3),
     (0.5e-3, 2, 0.25e-3),
     (0.5e-3, 2, 0.125e-3),
+    (0.5e-3, 3, 0.0625e-3),
+    (0.5e-3, 3, 0.03125e-3),
     (0.25e-3, 3, 0.0625e-3),
     (0.25e-3, 3, 0.03125e-3),
     (0.125e-3, 3, 0.015625e-3),
@@ -57,10 +63,9 @@ MAGFEM_LEVELS = [  # (size m, degree, step s); the last is the reference
 ELASTICA_LEVELS = [(25, 4e-6), (50, 2e-6), (100, 1e-6), (200, 5e-7), (400, 2.5e-7)]  # (n, Δt s)
 
 
-def magfem_run(size: float, degree: int, step: float) -> tuple[float, np.ndarray]:
-    """(wall s, tip angle in degrees at SAMPLES) of magfem's rod."""
-    start = time.process_time()
-    case = vc.cantilever_case(
+def magfem_case(size: float, degree: int, step: float) -> Case:
+    """The case of magfem's rod at one level (mesh size m, degree, step s)."""
+    return vc.cantilever_case(
         "rod",
         size,
         W,
@@ -72,9 +77,36 @@ def magfem_run(size: float, degree: int, step: float) -> tuple[float, np.ndarray
         time={"end": END, "step": step, "rho_inf": 0.5},
         solver={"degree": degree},
     )
-    history = build_simulation(case, MPI.COMM_SELF).run(progress=False).history
+
+
+def magfem_run(size: float, degree: int, step: float) -> tuple[float, np.ndarray]:
+    """(CPU s, tip angle in degrees at SAMPLES) of magfem's rod."""
+    start = time.process_time()
+    sim = build_simulation(magfem_case(size, degree, step), MPI.COMM_SELF)
+    history = sim.run(progress=False).history
     wall = time.process_time() - start
     return wall, np.interp(SAMPLES, history["time"], np.degrees(history["angle_arm"]))
+
+
+def magfem_split(size: float, degree: int, step: float) -> None:
+    """Print where one level's run spends its time, per step (``--split``)."""
+    magfem_run(size, degree, step)  # compilation
+    sim = build_simulation(magfem_case(size, degree, step), MPI.COMM_SELF)
+    start = time.process_time()
+    result = sim.run(progress=False)
+    cpu = time.process_time() - start
+    steps = len(result.history["time"]) - 1
+    newton = int(result.history["newton_iterations"].sum())
+    timings = result.timings
+    parts = ", ".join(
+        f"{k} {timings[k] / steps * 1e3:.2f}" for k in ("residual", "jacobian", "linear_solve")
+    )
+    rest = timings["total"] - sum(timings[k] for k in ("residual", "jacobian", "linear_solve"))
+    rank0_print(
+        f"{size * 1e3:g} mm P{degree}, dt {step * 1e3:g} ms: {steps} steps, {newton} Newton "
+        f"iterations, CPU {cpu / steps * 1e3:.2f} ms per step; wall ms per step: {parts}, "
+        f"the rest (observers, loads, integrator, SNES) {rest / steps * 1e3:.2f}"
+    )
 
 
 def elastica_run(n: int, dt: float, end: float = END) -> tuple[float, np.ndarray]:
@@ -152,6 +184,9 @@ def compare(report: Report, name: str, runs: list[tuple[str, float, np.ndarray]]
 
 
 def main() -> None:
+    if "--split" in sys.argv[1:]:
+        magfem_split(*MAGFEM_LEVELS[-2])
+        return
     report = Report(
         "| code | resolution | CPU (s, 1 core) | max error 0-25 ms (deg) | 0-6 ms (deg) |",
         "|---|---|---|---|---|",

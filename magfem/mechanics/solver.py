@@ -8,7 +8,9 @@ returns a :class:`NewtonReport` whose ``converged`` is
 ``SNES.getConvergedReason() > 0``.
 
 Default options (measured on thin cantilevers, docs/mechanics.md): Newton with
-``basic`` line search (``bt`` stalled), direct LU by MUMPS, and
+``basic`` line search (``bt`` stalled), direct LU chosen by size
+(:func:`choose_linear_solver`: PETSc's own LU for small Jacobians on one
+process, MUMPS otherwise), and
 ``snes_divergence_tolerance = 1e12`` (practically unlimited: PETSc's default 1e4 stops
 Newton on thin plates whose first iterate raises ‖R‖ a thousandfold).
 Options in ``SolverSpec.petsc_options`` override these; every problem has
@@ -40,12 +42,22 @@ from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
 from magfem.mechanics.spec import SolverSpec
 
 __all__ = [
+    "PETSC_LU_NONZEROS",
     "NewtonReport",
     "NewtonSolver",
     "SolverTimings",
+    "choose_linear_solver",
     "load_norm",
     "newton_options",
 ]
+
+PETSC_LU_NONZEROS = 150_000
+"""``linear_solver = "auto"`` factorises Jacobians with at most this many nonzeros
+with PETSc's own LU (on one process), larger ones with MUMPS: MUMPS's fixed
+cost per factorisation dominates below, its supernodes win above (CPU per
+numeric factorisation, ``python -m benchmarks.direct_solvers``: 5x less with
+PETSc's LU on a rod's 33 k nonzeros, 1.7x on a shell's 65 k, even at 174 k,
+MUMPS 1.3x faster on the default solid's 211 k, 2x on 380 k)."""
 
 _COUNTER = itertools.count()
 
@@ -84,8 +96,40 @@ class NewtonReport:
         return names.get(self.reason, str(self.reason))
 
 
-def newton_options(spec: SolverSpec) -> dict[str, Any]:
-    """PETSc options (without prefix) for a :class:`SolverSpec`."""
+def choose_linear_solver(spec: SolverSpec, nonzeros: int, ranks: int) -> str:
+    """The direct solver (``petsc``, ``mumps``, ``superlu_dist``) of ``spec`` for a Jacobian.
+
+    Args:
+        nonzeros: nonzero entries of the Jacobian (all ranks together).
+        ranks: processes sharing it (PETSc's own LU is serial only).
+    """
+    if spec.linear_solver != "auto":
+        return spec.linear_solver
+    return "petsc" if ranks == 1 and nonzeros <= PETSC_LU_NONZEROS else "mumps"
+
+
+def _factor_options(linear_solver: str) -> dict[str, Any]:
+    """Options of the LU factorisation by ``linear_solver``.
+
+    PETSc's own LU does not pivot and calls a pivot zero below an absolute
+    1e-12 (``pc_factor_zeropivot``): the rotary inertia of a rod's or shell's
+    rotations puts ~1e-18 on the diagonal of the initial acceleration's mass
+    matrix, so only an exact zero counts as one here.
+    """
+    opts: dict[str, Any] = {"pc_factor_mat_solver_type": linear_solver}
+    if linear_solver == "petsc":
+        opts["pc_factor_zeropivot"] = 0.0
+    return opts
+
+
+def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[str, Any]:
+    """PETSc options (without prefix) for a :class:`SolverSpec`.
+
+    ``linear_solver``: the direct solver chosen (:func:`choose_linear_solver`);
+    None: ``spec.linear_solver``, with ``auto`` read as ``mumps``.
+    """
+    if linear_solver is None:
+        linear_solver = "mumps" if spec.linear_solver == "auto" else spec.linear_solver
     opts: dict[str, Any] = {
         "snes_type": "newtonls",
         "snes_linesearch_type": spec.line_search,
@@ -99,8 +143,7 @@ def newton_options(spec: SolverSpec) -> dict[str, Any]:
         "pc_type": "lu",
         "ksp_error_if_not_converged": False,
     }
-    if spec.linear_solver != "petsc":
-        opts["pc_factor_mat_solver_type"] = spec.linear_solver
+    opts |= _factor_options(linear_solver)
     if spec.reuse_jacobian:
         # rebuild the Jacobian every second Newton iteration only
         opts["snes_lag_jacobian"] = 2
@@ -145,7 +188,6 @@ class NewtonSolver:
         force_scale: float | None = None,
         homogeneous_bcs: bool = False,
     ):
-        blocks = isinstance(u, Sequence)
         self.u = u
         self.spec = spec
         self.timings = SolverTimings()
@@ -169,6 +211,8 @@ class NewtonSolver:
             jit_options=JIT_OPTIONS,
         )
         self.timings.compile += time.perf_counter() - t0
+        self.linear_solver = self._choose_linear_solver()
+        """The direct solver factorising the Jacobian (``petsc``, ``mumps``, ``superlu_dist``)."""
         self.residual_hooks: list[Callable[[PETSc.Vec, PETSc.Vec], None]] = []
         """Called as ``hook(x, b)`` after the form residual is assembled and
         ghost-accumulated, before the Dirichlet rows are set: add non-local
@@ -176,11 +220,37 @@ class NewtonSolver:
         self.jacobian_hooks: list[Callable[[PETSc.Vec, PETSc.Mat], None]] = []
         """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
-        # the homogeneous shortcut assembles one form; blocks take dolfinx's residual
-        self._wrap_callbacks(list(bcs), homogeneous_bcs and not blocks)
+        self._wrap_callbacks(list(bcs), homogeneous_bcs)
         self.force_scale: float | None = None
         if force_scale is not None:
             self.set_force_scale(force_scale)
+
+    def _choose_linear_solver(self) -> str:
+        """Set the LU's solver by the Jacobian's size (collective); returns its name.
+
+        ``pc_factor_*`` options in ``spec.petsc_options`` win over the choice.
+        """
+        A = self.problem.A
+        nonzeros = int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_allocated"])  # type: ignore[arg-type]
+        chosen = choose_linear_solver(self.spec, nonzeros, A.comm.getSize())
+        pc = self.snes.getKSP().getPC()
+        user = self.spec.petsc_options
+        if pc.getType() not in ("lu", "cholesky"):
+            return str(pc.getType())
+        if "pc_factor_mat_solver_type" in user:
+            return str(user["pc_factor_mat_solver_type"])
+        if chosen == newton_options(self.spec)["pc_factor_mat_solver_type"]:
+            return chosen
+        # PETSc LU instead of the MUMPS that newton_options set for ``auto``: the
+        # factorisation is made at the first setUp, so the PC can still change its solver,
+        # its ordering (nested dissection, PETSc LU's own default; MUMPS orders
+        # externally) and its zero pivot
+        pc.setFactorSolverType(chosen)
+        if "pc_factor_mat_ordering_type" not in user:
+            pc.setFactorOrdering("nd")
+        if "pc_factor_zeropivot" not in user:
+            pc.setFactorPivot(zeropivot=_factor_options(chosen)["pc_factor_zeropivot"])
+        return chosen
 
     def set_force_scale(self, force_scale: float) -> float:
         """Measure the residual against the force F_ref = ``force_scale`` (N; N/m for strips).
@@ -212,10 +282,17 @@ class NewtonSolver:
         timings = self.timings
         residual_hooks, jacobian_hooks = self.residual_hooks, self.jacobian_hooks
         blocks: Any = problem.b.getAttr("_blocks")  # layout of block residuals, else None
+        # the conditions of each block's unknown (blocks), else all of them
+        block_bcs: Any = bcs
+        if blocks is not None:
+            block_bcs = fem.bcs_by_block(fem.extract_function_spaces(F), bcs)  # type: ignore[arg-type]
 
         def residual(snes_: Any, x: Any, b: Any) -> None:
             t0 = time.perf_counter()
             if homogeneous:
+                if blocks is not None:  # x may be a work vector of the line search
+                    x.setAttr("_blocks", blocks)
+                    b.setAttr("_blocks", blocks)
                 x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
                 fem_petsc.assign(x, u)  # type: ignore[arg-type]
                 with b.localForm() as b_local:
@@ -224,7 +301,7 @@ class NewtonSolver:
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 for hook in residual_hooks:
                     hook(x, b)
-                fem_petsc.set_bc(b, bcs, x0=x, alpha=-1.0)
+                fem_petsc.set_bc(b, block_bcs, x0=x, alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             else:
                 fem_petsc.assemble_residual(snes_, x, b, u, F, J, bcs, blocks)

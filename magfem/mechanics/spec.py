@@ -263,7 +263,11 @@ class SolverSpec:
     (``docs/mechanics.md``, "Newton convergence").
     """
 
-    linear_solver: str = option("mumps", ("mumps", "superlu_dist", "petsc"))
+    linear_solver: str = option(
+        "auto",
+        ("auto", "mumps", "superlu_dist", "petsc"),
+        doc="direct solver; auto: PETSc's LU for small Jacobians on one process, else MUMPS",
+    )
     line_search: str = option("basic", ("basic", "bt", "l2", "cp"))
     rtol: float = quantity(1e-6, "", gt=0.0, lt=1.0, doc="Newton relative residual tolerance")
     atol: float = quantity(1e-12, "N", ge=0.0, doc="Newton absolute residual tolerance (N)")
