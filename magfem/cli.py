@@ -358,6 +358,13 @@ def _dispatch(args: argparse.Namespace, comm: MPI.Comm, stop: StopSignals) -> in
         return _DRIVERS[args.command](args, comm)
     if args.command == "field":  # [robot], [mesh], [material] optional
         return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
+    if args.command == "check":
+        checked = load_field_case(args.case, args.overrides)
+        if isinstance(checked, FieldCase):  # a field-only case: what magfem field needs
+            parts = len(checked.field.sources) + len(checked.field.iron)
+            _say(comm, f"field     {parts} source(s) and iron part(s); no [robot]: field only")
+            _say(comm, f"{args.case}: OK")
+            return 0
     case = load_case(args.case, args.overrides)
     if args.command == "run":
         return _cmd_run(args, case, comm, stop)

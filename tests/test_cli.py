@@ -33,6 +33,19 @@ def test_check_reports_ok(shared_tmp, comm, capsys):
         assert "magnetoelastic length" not in out  # no field, no magnetisation: no length
 
 
+def test_check_accepts_a_field_only_case_and_still_rejects_bad_keys(repo, shared_tmp, comm, capsys):
+    """A case without [robot] is what magfem field needs: check says so; its keys are checked."""
+    assert main(["check", str(repo / "cases" / "tweezers_field.toml")]) == 0
+    out = capsys.readouterr().out
+    if comm.rank == 0:
+        assert "2 source(s) and iron part(s); no [robot]: field only" in out
+    bad = shared_tmp / "field_only_bad.toml"
+    if comm.rank == 0:
+        bad.write_text(tomli_w.dumps({"name": "f", "field": {"model": "spline"}}))
+    comm.barrier()
+    assert main(["check", str(bad)]) == 2
+
+
 def test_check_reports_the_magnetoelastic_length(shared_tmp, comm, capsys):
     """ℓ = t √(E/(12 M B)) and the elements per ℓ, here 100 µm at 2 mT: 1.08 mm, 0.5 mm mesh."""
     case = CASE | {
