@@ -169,7 +169,6 @@ class NewtonSolver:
             jit_options=JIT_OPTIONS,
         )
         self.timings.compile += time.perf_counter() - t0
-        self._last_residual_norm = [0.0]  # ‖R‖ of the last evaluation, kept by the callback
         self.residual_hooks: list[Callable[[PETSc.Vec, PETSc.Vec], None]] = []
         """Called as ``hook(x, b)`` after the form residual is assembled and
         ghost-accumulated, before the Dirichlet rows are set: add non-local
@@ -211,7 +210,6 @@ class NewtonSolver:
         snes = problem.solver
         u, F, J = problem.u, problem.F, problem.J
         timings = self.timings
-        last_norm = self._last_residual_norm
         residual_hooks, jacobian_hooks = self.residual_hooks, self.jacobian_hooks
         blocks: Any = problem.b.getAttr("_blocks")  # layout of block residuals, else None
 
@@ -238,7 +236,6 @@ class NewtonSolver:
                     b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
             timings.residual += time.perf_counter() - t0
             timings.residual_calls += 1
-            last_norm[0] = b.norm()
 
         def jacobian(snes_: Any, x: Any, A: Any, P: Any) -> None:
             t0 = time.perf_counter()
@@ -275,12 +272,13 @@ class NewtonSolver:
         reason = int(snes.getConvergedReason())  # type: ignore[call-overload]
         norm = snes.getFunctionNorm()
         converged = reason > 0 and math.isfinite(norm)
-        if reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and (
-            snes.getIterationNumber() == 0 or not math.isfinite(self._last_residual_norm[0])
+        if (
+            reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE
+            and snes.getIterationNumber() == 0
         ):
-            # newtonls returns this "convergence" when its line search fails (e.g. the full
-            # Newton step inverts an element: NaN) and the rejected step is below stol × ‖x‖:
-            # the iterate was never accepted, and the residual is the predictor's
+            # newtonls returns this when the line search of its first step fails (the full
+            # Newton step inverts an element: NaN): no step was taken, the iterate is the
+            # predictor and its residual the predictor's (a step-norm test needs a step)
             converged = False
         return NewtonReport(
             bool(converged),
