@@ -348,7 +348,15 @@ class NewtonSolver:
         self.timings.linear_solve = ksp_time0 + max(elapsed - (self.timings.assembly - asm0), 0.0)
         reason = int(snes.getConvergedReason())  # type: ignore[call-overload]
         norm = snes.getFunctionNorm()
-        converged = reason > 0 and norm == norm  # NaN check
+        converged = reason > 0 and math.isfinite(norm)
+        if (
+            reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE
+            and snes.getIterationNumber() == 0
+        ):
+            # newtonls returns this when the line search of its first step fails (the full
+            # Newton step inverts an element: NaN): no step was taken, the iterate is the
+            # predictor and its residual the predictor's (a step-norm test needs a step)
+            converged = False
         return NewtonReport(
             bool(converged),
             int(reason),
