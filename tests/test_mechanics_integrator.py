@@ -292,6 +292,8 @@ def test_force_tolerance_is_validated(value):
 # --- energy of undamped free vibration after a field switch-off (ρ∞ = 1) ----------------------
 
 
+# 5 min on 2 ranks; rho_inf = 1 runs on 2 ranks in test_shell_conserves_energy_with_rho_one
+@pytest.mark.serial
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "size", "width", "dt"),
