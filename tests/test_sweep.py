@@ -17,37 +17,9 @@ import tomli_w
 from magfem.cli import main
 from magfem.config import CaseError
 from magfem.sweep import build_points, parse_param
+from verification import setups as vc
 
-# A 4 mm strip arm, 4 x 0.5 mm P2 quads, a few steps: ~3 s per point with a warm JIT cache.
-CASE = {
-    "name": "sweep_probe",
-    "robot": {
-        "shape": "rectangle",
-        "thickness": "100 um",
-        "length": "4 mm",
-        "width": "1 mm",
-        "clamp_length": "0.5 mm",
-    },
-    "mesh": {"size": "0.5 mm", "model": "strip"},
-    "material": {
-        "shear_modulus": "115 kPa",
-        "density": "2130 kg/m^3",
-        "remanence": "123 kA/m",
-    },
-    "field": {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "4 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "square", "frequency": "100 Hz"},
-            }
-        ]
-    },
-    "time": {"end": "2 ms", "step": "0.25 ms"},
-    "environment": {"gravity": [0, 0, 0]},
-    "output": {"vtx_every": 0, "plot": False},
-}
+CASE = vc.SWEEP_PROBE
 
 
 def _case_file(directory):

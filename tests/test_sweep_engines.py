@@ -17,35 +17,11 @@ import tomli_w
 from magfem.config import CaseError
 from magfem.sweep import parse_engine_options, run_sweep
 from magfem.sweep.engines import PointJob, record_point
+from verification import setups as vc
 
 pytest.importorskip("submitit")  # the "cluster" extra; part of the test extra
 
-# A 4 mm strip arm, 4 x 0.5 mm P2 quads, 2 ms in 8 steps: ~3 s per point (warm form cache).
-CASE = {
-    "name": "engine_probe",
-    "robot": {
-        "shape": "rectangle",
-        "thickness": "100 um",
-        "length": "4 mm",
-        "width": "1 mm",
-        "clamp_length": "0.5 mm",
-    },
-    "mesh": {"size": "0.5 mm", "model": "strip"},
-    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
-    "field": {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "4 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "square", "frequency": "100 Hz"},
-            }
-        ]
-    },
-    "time": {"end": "2 ms", "step": "0.25 ms"},
-    "environment": {"gravity": [0, 0, 0]},
-    "output": {"vtx_every": 0, "plot": False},
-}
+CASE = vc.SWEEP_PROBE | {"name": "engine_probe"}
 PARAM = "field.sources.0.waveform.frequency"
 
 
