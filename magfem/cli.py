@@ -27,6 +27,7 @@ import logging
 import math
 import sys
 import time
+import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -353,12 +354,24 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _field_only(path: str) -> bool:
+    """Whether the file is a field-only case: a ``[field]`` and no robot, mesh or material.
+
+    Unreadable files are not (the case loader reports them).
+    """
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    return "field" in data and not {"robot", "mesh", "material"} & data.keys()
+
+
 def _dispatch(args: argparse.Namespace, comm: MPI.Comm, stop: StopSignals) -> int:
     if args.command in _DRIVERS:
         return _DRIVERS[args.command](args, comm)
     if args.command == "field":  # [robot], [mesh], [material] optional
         return _cmd_field(args, load_field_case(args.case, args.overrides), comm)
-    if args.command == "check":
+    if args.command == "check" and _field_only(args.case):
         checked = load_field_case(args.case, args.overrides)
         if isinstance(checked, FieldCase):  # a field-only case: what magfem field needs
             parts = len(checked.field.sources) + len(checked.field.iron)
