@@ -137,6 +137,7 @@ def _long_functions(source: str, limit: int) -> list[tuple[int, str, int]]:
     return out
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_modules_and_functions_are_small(repo):
     found = []
     for path in sorted((repo / "magfem").rglob("*.py")):

@@ -225,6 +225,7 @@ def test_missing_case_file(shared_tmp, comm, capsys):
 
 
 @pytest.mark.serial
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_console_script_prints_no_traceback(tmp_path):
     """The installed entry point, in a fresh interpreter, as a user runs it."""
     path = _write(tmp_path, _mutate(_set("robot.thickness", "-1 mm")))

@@ -67,6 +67,7 @@ def test_current_sheet_against_loop_sum():
     )
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_thick_coil_against_loop_sum_and_on_axis_formula():
     rho = np.array([0.0, 0.01, 0.02, 0.06, 0.03, 0.0])
     z = np.array([0.0, 0.005, 0.0, 0.0, 0.025, 0.05])
@@ -82,6 +83,7 @@ def test_thick_coil_against_loop_sum_and_on_axis_formula():
     )
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_coil_quadrature_is_converged_down_to_its_resolution():
     # points approaching an end face of the winding, down to coil_resolution
     res = an.coil_resolution(0.025, 0.0575)

@@ -60,6 +60,7 @@ def _linear_reference(mu_r: float) -> tuple[np.ndarray, np.ndarray]:
     return b_in, 4 * math.pi * A**3 / an.MU0 * (mu_r - 1) / (mu_r + 2) * B0
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_linear_iron_sphere_axisymmetric(comm):
     """Acceptance: interior 3 µr/(µr + 2) B0 and the exterior dipole within 0.1 %."""
     solve = from_table(SolveSpec, {}, "solve")  # defaults: (r, z), P3, curved, h = a/20
@@ -89,6 +90,7 @@ def test_linear_iron_sphere_3d(comm):
     assert err["moment"] < 1.5e-3
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_nonlinear_sphere_converges_with_the_mesh(comm):
     """Saturating iron (µr 1000, J_s 1.5 T) in 1 T: Newton, and the error falls like h²."""
     part = _sphere(1000.0, saturation=1.5)
@@ -118,6 +120,7 @@ def test_nonlinear_sphere_converges_with_the_mesh(comm):
     np.testing.assert_allclose(r.iron_flux_density(inner)[:, 2], b_in, rtol=1e-5)  # 1.6e-6
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_far_field_beyond_the_air_region_is_the_dipole(comm):
     solve = from_table(SolveSpec, {"air_factor": 4}, "solve")
     (reaction,) = solve_iron([_sphere()], [UniformField(B0)], solve, comm)
@@ -163,6 +166,7 @@ def test_nonlinear_iron_follows_a_square_wave(comm):
     assert err.max() < 2e-3  # P2, 1 mm at the surface: measured 6.6e-4
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_iron_moves_rigidly_with_its_magnet(comm):
     table = {
         "workspace_size": "4 mm",

@@ -249,6 +249,7 @@ MOVING = {
 }
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_moving_magnets_in_every_model(comm):
     spec = from_table(FieldSpec, MOVING, "field")
     terms = build_terms(spec, comm)

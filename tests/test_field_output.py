@@ -36,6 +36,7 @@ FIELD = {
 }
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_run_field_writes_consistent_outputs(comm, shared_tmp):
     case = parse_field_case({"name": "field-output", "field": FIELD})
     written = run_field(case, shared_tmp / "out", comm)
@@ -71,6 +72,7 @@ SPHERE_CASE = {
 }
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_field_command_without_robot_table(comm, shared_tmp, capsys):
     path = shared_tmp / "sphere.toml"
     if comm.rank == 0:

@@ -109,6 +109,7 @@ def _cell_extents(rm) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("shape", ["trapezoid", "triangle", "bow_tie"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_size_across(shape, comm):
     """``size_across``: elements 4x longer across the arms, exact volume and groups, fewer cells."""
     r = robot(shape)
@@ -156,6 +157,7 @@ def test_size_across_rejected():
         meshspec(size="0.1 mm", size_across="0.5 mm", model="strip")
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_curved_outline_accuracy(comm):
     """Second-order geometry captures the star hub; order-1 flower area converges at rate 2."""
     star = robot("star")

@@ -45,6 +45,7 @@ def _stop_at(call: int):
     return lambda comm: int(signal.SIGINT) if next(calls) == call else 0
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_resume_gives_the_uninterrupted_history_bit_for_bit(comm, shared_tmp):
     """Stopped after step 7, resumed: every history column, the CSV file and the VTU/PVD
     series equal those of the run that was never stopped (same ranks: the same arithmetic,

@@ -40,6 +40,7 @@ def _case(cargo: dict, environment: dict, time: dict, **tables):
     )
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plate_and_cargo_exchange_momentum(comm):
     cube = {
         "shape": "box",
@@ -68,6 +69,7 @@ def test_plate_and_cargo_exchange_momentum(comm):
     assert not sim.log or all("staggered" not in line for line in sim.log)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_cargo_rests_on_its_floor_at_the_winkler_indentation(comm):
     size, rho, modulus = 2e-3, 300.0, 5e3
     cube = {
@@ -96,6 +98,7 @@ def test_cargo_rests_on_its_floor_at_the_winkler_indentation(comm):
     assert sink == pytest.approx(expected, rel=1e-6)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_cargo_on_a_held_plate_is_held(comm):
     cube = {
         "shape": "box",

@@ -131,6 +131,7 @@ def _resting_case(model: str):
 
 
 @pytest.mark.parametrize("model", ["surface", "solid"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plate_rests_on_a_half_space_at_the_penalty_penetration(comm, model):
     case = _resting_case(model)
     sim = build_simulation(case, comm)
@@ -217,6 +218,7 @@ def test_motion_offsets_and_velocity():
     assert np.allclose(offset, [1, 0, 2]) and np.allclose(velocity, 0.0)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_turning_obstacle_places_its_distance_normal_and_velocity(comm):
     """A box turning and moving on keyframes: g, n and the surface velocity at the robot's
     points equal the placed geometry (x = R (y − p) + p + d: g(Rᵀ(x − p − d) + p), R n,
@@ -278,6 +280,7 @@ MU_SLOPE, EPS_SLOPE = 0.5, 1e-4  # friction coefficient, v_ε (m/s)
 
 
 @pytest.mark.parametrize("ratio", [0.8, 1.25])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_block_on_a_tilted_plane_sticks_below_the_friction_angle_and_slides_above(comm, ratio):
     """A plate placed on a half-space tilted by θ (tan θ = ratio μ_f) under gravity.
 

@@ -236,6 +236,7 @@ def test_coupled_linearisation_matches_finite_differences(comm):
     assert np.all(np.abs(total) < 1e-12 * b.norm()), total
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_pressed_blocks_rest_at_the_penalty_penetration(comm):
     G, dt = 100.0, 5e-4  # m/s², s
     case = _case(

@@ -48,6 +48,7 @@ def _decrement(comm, loads: tuple) -> float:
     return float(np.mean(np.log(peaks[:-1] / peaks[1:])))
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_strip_mode_decays_at_the_kelvin_voigt_damping_ratio(comm):
     omega = 2 * math.pi * BEAM
     beta = 2 * ZETA / omega

@@ -54,6 +54,7 @@ def _energy_error(comm, model: str, surfaces: list[str], dt: float) -> float:
 @pytest.mark.parametrize(
     ("model", "surfaces"), [("surface", ["all"]), ("solid", ["top", "bottom"])]
 )
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_free_plate_slows_down_exponentially_at_second_order(comm, model, surfaces):
     coarse = _energy_error(comm, model, surfaces, TAU / 10)
     fine = _energy_error(comm, model, surfaces, TAU / 20)

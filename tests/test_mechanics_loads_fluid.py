@@ -104,6 +104,7 @@ def _ringdown(comm, fluid: dict | None, period: float, periods: float) -> tuple[
     return omega / (2 * math.pi), 1 / (2 * zeta)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_cantilever_resonance_in_water_matches_sader(comm):
     mu, bulk = vc.SHEAR_MODULUS, 100 * vc.SHEAR_MODULUS
     E, nu = ref.young_modulus(mu, bulk), ref.poisson_ratio(mu, bulk)
@@ -124,6 +125,7 @@ def test_cantilever_resonance_in_water_matches_sader(comm):
 
 
 @pytest.mark.parametrize("model", ["surface", "rod"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plate_started_impulsively_feels_the_added_mass_force(comm, model):
     h = 50e-6
     sim = build_simulation(parse_case(_plate(model, h, {"end": 2e-3, "step": 1e-3}, WATER)), comm)
@@ -138,6 +140,7 @@ def test_plate_started_impulsively_feels_the_added_mass_force(comm, model):
     assert row["fluid_force_z"] == pytest.approx(-m_a * expected * area, rel=1e-9)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_solid_plate_accelerates_with_its_added_mass(comm):
     """The solid's faces carry the added mass, its volume the weight: the first instant
     compresses the 50 µm layer (a thickness mode that ρ∞ = 0.5 damps within steps), then
@@ -162,6 +165,7 @@ def test_solid_plate_accelerates_with_its_added_mass(comm):
     assert history["swim_speed"][-1] == pytest.approx(reference[-1], rel=2e-3)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plate_in_a_current_starts_with_its_drag(comm):
     """Re = 10 (5 mm/s on the 2 mm chord): Clift's middle branch, which the model uses."""
     h, speed = 50e-6, 5e-3
@@ -177,6 +181,7 @@ def test_plate_in_a_current_starts_with_its_drag(comm):
     assert comm.allreduce(local, op=max) < 1e-6 * expected
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plate_settles_at_the_terminal_speed_of_a_disk(comm):
     h = 50e-6
     fluid = WATER | {"swim_direction": [0, 0, -1]}
@@ -197,6 +202,7 @@ def test_plate_settles_at_the_terminal_speed_of_a_disk(comm):
 
 
 @pytest.mark.parametrize("model", ["surface", "solid"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_neutrally_buoyant_membrane_does_not_drift(comm, model):
     data = _plate(model, 50e-6, {"end": 5e-3, "step": 1e-3, "adaptive": False}, WATER)
     data["material"]["density"] = RHO_W

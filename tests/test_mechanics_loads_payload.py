@@ -48,6 +48,7 @@ LOAD = ((RHO_S - RHO_W) * H * AREA + (M_P - M_F)) * 9.8  # N
 INERTIA = RHO_S * H * AREA + M_A * AREA + M_P  # kg
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_payload_weighs_and_resists_acceleration(comm):
     payload = {"mass": M_P, "group": "body", "displaced_mass": M_F}
     sim = build_simulation(_case("surface", payload), comm)
@@ -59,6 +60,7 @@ def test_payload_weighs_and_resists_acceleration(comm):
     assert comm.allreduce(local, op=max) < 1e-9 * abs(expected)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_strip_with_payload_falls_with_the_reference(comm):
     """The 2D strip: weight and payload in its section, added mass on its faces (the first
     steps damp a thickness mode); after 2 ms it falls as the settling ODE of the whole."""

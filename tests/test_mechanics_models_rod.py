@@ -32,6 +32,7 @@ def tip_errors(comm, size, width, modulus, free=FREE, **mesh_options):
     return np.degrees(np.abs(angles - vc.elastica_reference_angles(modulus, fields, free)))
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_rigid_rod_converges_to_beam_elastica(comm):
     """Rigid clamp at the patch edge, beam law E I: the elastica of the free length."""
     errors = np.array(
@@ -47,6 +48,7 @@ def test_rigid_rod_converges_to_beam_elastica(comm):
     assert np.all(errors[2] < 0.005), errors  # measured <= 0.0026°
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_wide_rod_plate_law_matches_plate_elastica(comm):
     """A 2 mm wide arm with the plate law E I/(1 − ν²): the plate elastica (+8° over the beam)."""
     plate = ref.bending_modulus(E, NU, "plate")
@@ -54,6 +56,7 @@ def test_wide_rod_plate_law_matches_plate_elastica(comm):
     assert np.all(errors < 0.005), errors  # the beam test's mesh bound at the same size
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_bonded_rod_is_elastica_of_inset_length(comm):
     """root = bonded clamps SHELL_CLAMP_INSET·t inside the patch: that length's elastica."""
     free = FREE + SHELL_CLAMP_INSET * H
@@ -63,6 +66,7 @@ def test_bonded_rod_is_elastica_of_inset_length(comm):
     assert np.all(rigid > 0.1), rigid  # the inset matters (~0.3° at these loads)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_rod_matches_beam_frequency(comm):
     """Narrow arm, no field: the first Euler–Bernoulli frequency of the inset length."""
     free = FREE + SHELL_CLAMP_INSET * H

@@ -67,6 +67,7 @@ def test_shell_converges_to_the_beam_elastica(comm):
     assert np.all(errors[2] < 0.2), errors  # the 0.13° offset of the converged shell, above
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_rigid_root_clamps_the_shell_at_the_patch_edge(comm):
     """``[mesh] root = "rigid"`` moves the shell's clamp from the inset line to the patch edge.
 
@@ -125,6 +126,7 @@ def test_shell_conserves_energy_with_rho_one(comm):
 
 
 @pytest.mark.serial  # local block arrays; the MPI run test covers the parallel assembly
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_shell_step_jacobian_matches_central_differences(comm):
     """Each block of the Jacobian is the exact derivative of its block residual.
 
@@ -182,6 +184,7 @@ def test_shell_step_jacobian_matches_central_differences(comm):
             assert errors[1] < 0.05 * errors[0] or errors[0] < 1e-7, (i, j, errors)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_mpi_shell_run_reproduces_serial_angle_history(comm):
     """Under mpirun the world run equals a COMM_SELF run on rank 0 (to 1e-8 rad)."""
     case = _case(time={"end": "4 ms", "step": "0.25 ms"})
@@ -212,6 +215,7 @@ def test_shell_rejects_what_it_does_not_model(comm, tables, key):
         build_simulation(_case(**tables), comm)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_shell_fixed_point_holds_the_nodes_within_its_radius(comm):
     """``[environment] fixed_point`` on the shell: the displacement of every mid-surface node
     within ``fixed_radius`` of the point is held (and of no other), the angles stay free, and

@@ -170,6 +170,7 @@ def test_midline_probe_on_a_strip_rigid_rotation(repo, comm):
     assert set(probe.columns()) == set(row)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_run_writes_a_motion_gif(repo, shared_tmp, comm):
     """A tiny two-arm run (3 ms, 0.5 ms steps) animates: > 1 frame, and the arm moves."""
     from PIL import Image, ImageSequence

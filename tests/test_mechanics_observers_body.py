@@ -44,6 +44,7 @@ def _pendulum_error(comm, model: str, dt: float) -> float:
     return vc.magnetic_pendulum_error(comm, model, dt)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_free_plate_turns_as_a_magnetic_pendulum(comm):
     coarse = _pendulum_error(comm, "surface", 2e-4)
     fine = _pendulum_error(comm, "surface", 1e-4)
@@ -53,6 +54,7 @@ def test_free_plate_turns_as_a_magnetic_pendulum(comm):
     assert math.degrees(fine) < 0.03
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_free_solid_plate_turns_as_a_magnetic_pendulum(comm):
     # the solid's phase error at Δt = 0.2 ms: 0.094° (the shell's 0.081° plus its
     # thickness modes); 0.15° leaves room and fails a wrong inertia (L² vs L² + t²: 0.6°
@@ -74,6 +76,7 @@ MAGNET = {
 
 
 @pytest.mark.parametrize("model", ["surface", "solid"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_constant_gradient_accelerates_the_centre_of_mass(comm, model):
     height = 30e-3
     x0 = np.array([0.0, 0.0, height + T / 2])
@@ -148,6 +151,7 @@ def test_free_solid_conserves_momentum_and_energy(comm):
     assert errors[0] / errors[1] > 4.0
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_free_shell_conserves_momentum(comm):
     h = _spin(comm, "surface", 5e-4)
     # translation invariance of the shell's energy (measured 3e-15); its angular momentum

@@ -27,6 +27,7 @@ def _plate(model: str):
 
 
 @pytest.mark.parametrize("model", ["surface", "solid"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_roll_and_pitch_of_a_rigid_rotation(comm, model):
     """u = R X − X turns the body rigidly: roll about e = (1, 1, 0)/√2 by 2.5 rad (beyond π/2,
     so the unwrapping across the steps taken to it counts), then pitch about l = e_z × e."""

@@ -74,6 +74,7 @@ def test_placed_nodes_follow_the_rigid_motion(comm, model, axis):
 
 
 @pytest.mark.parametrize("spin", [(0.0, 0.0, 20.0), (20.0, 0.0, 0.0)])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_upright_star_turns_rigidly(comm, spin):
     star = {"shape": "star", "arms": 3, "thickness": "80 um", "arm_length": "4 mm"}
     initial = {"axis": [1, 0, 0], "angle": "90 deg", "angular_velocity": list(spin)}

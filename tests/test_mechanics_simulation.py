@@ -130,6 +130,7 @@ def test_extremes_run_and_stay_physical(comm, thickness, flux, frequency):
     assert np.max(result.history["strain"]) < 0.5
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_rotating_field_curls_arm_past_270_degrees(comm):
     """Axially magnetized clamped strip in a 10 mT field rotating at 2 Hz in its side plane.
 
@@ -345,6 +346,7 @@ def test_quasi_static_membrane_rests_on_the_ground_under_its_weight(comm, model,
     assert abs(history["tip_normal_arm"][-1]) * case.robot.length < h
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_force_tolerance_saves_newton_iterations_not_accuracy(comm):
     """``[solver] force_tolerance``: Newton stops at ‖R‖ <= tol × ‖weight load‖ in the time loop.
 
@@ -393,6 +395,7 @@ def test_stalled_run_stops_with_its_reason_and_keeps_its_history(comm, shared_tm
     assert rows[0].startswith("time [s],") and len(rows) >= 2  # header and the t = 0 state
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_run_summary_equals_the_summary_of_its_csv(comm, shared_tmp):
     """The run's own summary and the sweep's summary of its history.csv are one computation:
     they agree on every common key (the CSV stores repr(float), so exactly), nan included."""

@@ -8,6 +8,8 @@ import re
 import sys
 import tomllib
 
+import pytest
+
 # Part of every dolfinx 0.11 install (the PyPI wheel dolfinx-solver-real bundles them, a
 # conda-forge install brings them as its own packages): not declared on their own.
 WITH_DOLFINX = {"dolfinx", "dolfinx_solver", "petsc4py"}
@@ -46,6 +48,7 @@ def _undeclared(modules, declared):
     )
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_package_imports_are_runtime_dependencies(repo):
     """Or an optional extra's (imported where needed: tests/test_architecture.py's OPTIONAL)."""
     project = tomllib.loads((repo / "pyproject.toml").read_text(encoding="utf-8"))["project"]
@@ -56,6 +59,7 @@ def test_package_imports_are_runtime_dependencies(repo):
     assert _undeclared(package, runtime) == []
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_test_and_benchmark_imports_are_declared(repo):
     project = tomllib.loads((repo / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     extras = project["optional-dependencies"]

@@ -166,6 +166,7 @@ HEAVY = ("bow_tie", "failure", "five_arm", "flower", "one_arm_triangle")
     "name",
     [pytest.param(n, marks=pytest.mark.slow) if n in HEAVY else n for n in sorted(SCENES)],
 )
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_scene_runs_and_moves_as_torque_predicts(name, repo, shared_tmp, comm):
     _check_scene(name, SCENES[name], repo, shared_tmp, comm)
 
@@ -250,6 +251,7 @@ def _check_swimmer(name: str, args: list[str], repo, shared_tmp, comm) -> None:
 
 @pytest.mark.serial
 @pytest.mark.parametrize("name", sorted(SWIMMERS))
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_swimmer_runs_and_turns_as_torque_predicts(name, repo, shared_tmp, comm):
     _check_swimmer(name, SWIMMERS[name], repo, shared_tmp, comm)
 

@@ -37,6 +37,7 @@ MU_F, G, V0 = vc.FRICTION, vc.GRAVITY, vc.SLIDE_SPEED
         ("solid", 10.0, 0.05),
     ],
 )
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_resting_membrane_penetrates_by_the_penalty_law(comm, model, penalty, onset):
     run = vc.rest_on_ground(comm, model, {"penalty": penalty, "penalty_onset": onset})
     # measured |rel| <= 5e-5 (the last of the settling transient); 1e-3 leaves margin
@@ -50,6 +51,7 @@ def _slide(comm, regularization_velocity: float) -> tuple[float, float]:
     return vc.slide_on_ground(comm, regularization_velocity, {"slip_length": 0.0})
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_sliding_membrane_decelerates_at_mu_g_and_converges_to_coulomb(comm):
     coulomb = V0**2 / (2 * MU_F * G)
     errors = []

@@ -53,6 +53,7 @@ def static_tip_angles(comm, **kwargs):
     return fields, angles
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_strip_plane_strain_converges_to_elastica(comm):
     modulus = material.plane_strain_modulus(MU, 100 * MU)
     errors = []
@@ -106,6 +107,7 @@ def test_narrow_solid_matches_beam_elastica(comm):
 K_SOFT = MU  # bulk modulus of the ν = 1/8 solid (Pa)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_strip_rigid_root_converges_to_elastica(comm):
     modulus = material.plane_strain_modulus(MU, K_SOFT)
     errors = []

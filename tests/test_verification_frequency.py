@@ -38,6 +38,7 @@ def measured_frequency(comm, **kwargs) -> float:
     return vc.measured_frequency(comm, **kwargs)[1]
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plane_strain_strip_matches_plate_frequency(comm):
     E, nu = ref.young_modulus(MU, 100 * MU), ref.poisson_ratio(MU, 100 * MU)
     plate = ref.cantilever_frequency(ref.bending_modulus(E, nu, "plate"), RHO, H, FREE)
@@ -57,6 +58,7 @@ def test_plane_strain_strip_matches_plate_frequency(comm):
     assert plate / beam - 1 > 0.1  # the plate correction is not a detail here (+15 %)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_plane_stress_strip_matches_beam_frequency(comm):
     beam = ref.cantilever_frequency(3 * MU, RHO, H, FREE)  # plane-stress law: E = 3μ
     f = measured_frequency(
