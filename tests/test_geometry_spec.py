@@ -17,6 +17,7 @@ from magfem.config import CaseError, from_table, to_table
 from magfem.geometry.outline import Outline
 from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.geometry.shapes import SHAPES, Shape
+from magfem.geometry.shapes.base import register
 from magfem.geometry.spec import STRIP_SHAPES, MeshSpec, RobotSpec
 
 THICKNESS = 1e-4
@@ -167,3 +168,13 @@ def test_mesh_spec_checks():
     with pytest.raises(CaseError) as err:
         create_robot_mesh(robot("rectangle"), meshspec(size="3 mm"), MPI.COMM_WORLD)
     assert err.value.key == "mesh.size"
+
+
+def test_a_shape_without_a_smallest_feature_is_refused_at_registration():
+    class Bare(Shape):
+        def outline(self):  # pragma: no cover - never built
+            raise AssertionError
+
+    with pytest.raises(TypeError, match="neither feature_keys nor min_feature"):
+        register("bare_test_shape")(Bare)
+    assert "bare_test_shape" not in SHAPES

@@ -78,25 +78,14 @@ STRIP_CANTILEVER: dict[str, Any] = {
 """A 7.5 mm, 80 µm strip bonded over 1 mm, in a 2 mT 20 Hz square wave (the dynamics tests'
 case table: plane strain, P2 at 0.5 mm, 5 ms)."""
 
-SWEEP_PROBE: dict[str, Any] = {
+SWEEP_PROBE: dict[str, Any] = STRIP_CANTILEVER | {
     "name": "sweep_probe",
-    "robot": {
-        "shape": "rectangle",
-        "thickness": "100 um",
-        "length": "4 mm",
-        "width": "1 mm",
-        "clamp_length": "0.5 mm",
-    },
-    "mesh": {"size": "0.5 mm", "model": "strip"},
-    "material": {"shear_modulus": "115 kPa", "density": "2130 kg/m^3", "remanence": "123 kA/m"},
+    "robot": STRIP_CANTILEVER["robot"]
+    | {"thickness": "100 um", "length": "4 mm", "width": "1 mm", "clamp_length": "0.5 mm"},
     "field": {
         "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "4 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "square", "frequency": "100 Hz"},
-            }
+            STRIP_CANTILEVER["field"]["sources"][0]
+            | {"flux_density": "4 mT", "waveform": {"kind": "square", "frequency": "100 Hz"}}
         ]
     },
     "time": {"end": "2 ms", "step": "0.25 ms"},

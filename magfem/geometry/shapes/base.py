@@ -38,8 +38,6 @@ class Shape(ABC):
     @property
     def min_feature(self) -> float:
         """Smallest in-plane dimension (m) an element must resolve (e.g. the arm width)."""
-        if not self.feature_keys:
-            raise NotImplementedError(f"{type(self).__name__} declares no feature_keys")
         return min(float(getattr(self, key)) for key in self.feature_keys)
 
     @property
@@ -99,6 +97,8 @@ def register(name: str) -> Callable[[S], S]:
     def decorate(cls: S) -> S:
         if name in SHAPES:
             raise ValueError(f"shape {name!r} is registered twice")
+        if not cls.feature_keys and cls.min_feature is Shape.min_feature:
+            raise TypeError(f"shape {name!r} declares neither feature_keys nor min_feature")
         cls.name = name
         SHAPES[name] = cls
         return cls
