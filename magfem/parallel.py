@@ -27,6 +27,7 @@ from mpi4py import MPI
 from tqdm import tqdm
 
 __all__ = [
+    "JIT_WAIT",
     "LOGGER",
     "agree",
     "configure_logging",
@@ -38,6 +39,12 @@ __all__ = [
 ]
 
 LOGGER = logging.getLogger("magfem")
+
+JIT_WAIT: dict[str, Any] = {"timeout": 900}
+"""dolfinx JIT option of every magfem form: how long (s) a process waits for another process
+that compiles the same form into the shared cache (sweep points run side by side, test workers)
+before it gives up. dolfinx's default, 10 s, is shorter than a cold compile of a large Jacobian
+on a loaded machine, and the waiting process then fails with a TimeoutError."""
 """The parent logger of every magfem module."""
 LOGGER.addHandler(logging.NullHandler())
 

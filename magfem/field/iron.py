@@ -53,6 +53,7 @@ from magfem.field.reaction import AxisFrame, ReactionField
 from magfem.field.recovery import Projector, air_indicator, pack
 from magfem.field.source import SourceField
 from magfem.field.spec import SolveSpec
+from magfem.parallel import JIT_WAIT
 
 __all__ = ["solve_iron"]
 
@@ -177,7 +178,7 @@ class _Linear:
     """One assembled operator and its CG + GAMG solver, for several right-hand sides."""
 
     def __init__(self, a: Any, bcs: list[Any], prefix: str):
-        self.a, self.bcs, self.prefix = fem.form(a), bcs, prefix
+        self.a, self.bcs, self.prefix = fem.form(a, jit_options=JIT_WAIT), bcs, prefix
         self.A = petsc.assemble_matrix(self.a, bcs=bcs)
         self.A.assemble()
         self.ksp = PETSc.KSP().create(self.A.getComm())
@@ -191,7 +192,7 @@ class _Linear:
 
     def solve(self, L: Any, u: Any) -> None:
         """Solve a u = L into the Function ``u``; raises if CG fails."""
-        b = petsc.assemble_vector(fem.form(L))
+        b = petsc.assemble_vector(fem.form(L, jit_options=JIT_WAIT))
         petsc.apply_lifting(b, [self.a], [self.bcs])
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]
         petsc.set_bc(b, self.bcs)
@@ -255,7 +256,12 @@ def _solve_nonlinear(P: _Problem, u: Any, g: Any, Bs: Any, name: str) -> int:
         **_KRYLOV,
     }
     problem = petsc.NonlinearProblem(
-        F, u, bcs=P.bcs, petsc_options_prefix=f"magfem_{name}_", petsc_options=opts
+        F,
+        u,
+        bcs=P.bcs,
+        petsc_options_prefix=f"magfem_{name}_",
+        petsc_options=opts,
+        jit_options=JIT_WAIT,
     )
     problem.solve()
     snes: Any = problem.solver
@@ -301,13 +307,19 @@ def _iron_field(P: _Problem, u: Any, g: Any) -> tuple[Any, np.ndarray]:
     B = P.flux(b)
     D = fem.functionspace(P.msh, ("DG", P.degree - 1, (P.gdim,)))
     Bi = fem.Function(D, name="B_iron")
-    Bi.interpolate(fem.Expression(B, D.element.interpolation_points), cells0=P.iron_cells)
+    Bi.interpolate(
+        fem.Expression(B, D.element.interpolation_points, jit_options=JIT_WAIT), cells0=P.iron_cells
+    )
     Bi.x.scatter_forward()
     comm = P.msh.comm
     m = (
         np.array(
             [
-                comm.allreduce(fem.assemble_scalar(fem.form((B[i] - b[i]) * P.weight * P.dxi)))
+                comm.allreduce(
+                    fem.assemble_scalar(
+                        fem.form((B[i] - b[i]) * P.weight * P.dxi, jit_options=JIT_WAIT)
+                    )
+                )
                 for i in range(P.gdim)
             ]
         )

@@ -22,6 +22,8 @@ from dolfinx import fem
 from dolfinx.fem import petsc
 from petsc4py import PETSc
 
+from magfem.parallel import JIT_WAIT
+
 __all__ = ["Projector", "air_indicator", "pack"]
 
 
@@ -83,7 +85,7 @@ class Projector:
     ):
         self.V, self.dx, self.weight = V, dx, weight
         u, self._w = ufl.TrialFunction(V), ufl.TestFunction(V)
-        a = fem.form(u * self._w * weight * dx)
+        a = fem.form(u * self._w * weight * dx, jit_options=JIT_WAIT)
         self._ksp: dict[bool, Any] = {}
         self._bc = None
         variants = [False]
@@ -109,7 +111,7 @@ class Projector:
 
     def __call__(self, expr: Any, *, constrained: bool = False, name: str = "") -> Any:
         """The projection of the scalar UFL ``expr`` (a new Function on V)."""
-        L = fem.form(expr * self._w * self.weight * self.dx)
+        L = fem.form(expr * self._w * self.weight * self.dx, jit_options=JIT_WAIT)
         b = petsc.assemble_vector(L)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]
         if constrained:

@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 
 from magfem import material
 from magfem.mechanics.observers.base import Observer
+from magfem.parallel import JIT_WAIT
 
 __all__ = ["Strain", "StrainProbe"]
 
@@ -67,7 +68,7 @@ class StrainProbe:
             F = ufl.Identity(gdim) + ufl.grad(u)
             metrics = [F.T * F]
         self.dim = ufl.shape(metrics[0])[0]
-        self.expr = fem.Expression(ufl.as_tensor(list(metrics)), points)
+        self.expr = fem.Expression(ufl.as_tensor(list(metrics)), points, jit_options=JIT_WAIT)
         n_local = domain.topology.index_map(domain.topology.dim).size_local
         self.cells = np.arange(n_local, dtype=np.int32)
         nv = len(points)

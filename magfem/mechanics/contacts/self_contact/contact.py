@@ -28,6 +28,7 @@ from magfem.mechanics.integrator import TimeIntegrator
 from magfem.mechanics.models.base import Model
 from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import ContactSpec
+from magfem.parallel import JIT_WAIT
 
 __all__ = ["SelfContact"]
 
@@ -68,7 +69,9 @@ class SelfContact(Contact):
         X = ufl.SpatialCoordinate(V.mesh)
         phi = ufl.TestFunction(p.Vc)
         # nodal forces at the observed state (u_geom = u_n during observation)
-        self._force_form = fem.form(ufl.inner(p.pressure(X + p.u_geom) * p.nbar, phi) * p.measure)
+        self._force_form = fem.form(
+            ufl.inner(p.pressure(X + p.u_geom) * p.nbar, phi) * p.measure, jit_options=JIT_WAIT
+        )
         self._active: dict[tuple[int, int], bool] = {}
         self.first_touch: dict[tuple[int, int], float] = {}
         self.max_force = 0.0

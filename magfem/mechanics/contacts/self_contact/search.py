@@ -67,6 +67,7 @@ from magfem.mechanics.contacts.self_contact.law import (
     INSIDE,
     SelfContactLaw,
 )
+from magfem.parallel import JIT_WAIT
 
 __all__ = ["SurfacePairing"]
 
@@ -135,7 +136,9 @@ class SurfacePairing:
         cofactor = ufl.det(F) * ufl.inv(F).T
         N = ufl.FacetNormal(domain)
         phi = ufl.TestFunction(self.Vc)
-        self._normal_form = fem.form(ufl.inner(cofactor * N, phi) * self.measure)
+        self._normal_form = fem.form(
+            ufl.inner(cofactor * N, phi) * self.measure, jit_options=JIT_WAIT
+        )
 
     def _surface_facets(
         self, robot: RobotMesh, key: str
