@@ -245,7 +245,7 @@ def _swimming(case: Case, model: Model, fluid: FluidLoad) -> Swimming:
         kinematic_viscosity=coefficients.kinematic_viscosity,
         chord=coefficients.chord,
         depth=model.depth,
-        comm=model.robot.mesh.comm,
+        mesh=model.robot.mesh,
     )
 
 
@@ -277,7 +277,7 @@ def _observers(
         metrics=model.strain_metrics,
     )
     observers.append(Strain(probe, case.material.shear_modulus))
-    observers.append(Energies(energy_forms, model.robot.mesh.comm, model.depth))
+    observers.append(Energies(energy_forms, model.robot.mesh, model.depth))
     if model.free_body:
         observers.append(BodyMotion(model, case.initial.rotation[:, 2]))
     observers.append(AppliedField(field_model, _field_point(model)))

@@ -86,7 +86,7 @@ from magfem.mechanics.contacts.base import CONTACTS, Contact, ContactKindSpec
 from magfem.mechanics.contacts.obstacle import Obstacle
 from magfem.mechanics.contacts.penalty import PenaltyLaw, critical_contact_damping, penalty_ramp
 from magfem.mechanics.contacts.rigid import MotionSpec, describe_motion, describe_shape
-from magfem.mechanics.forms import assemble_scalars, compile_form
+from magfem.mechanics.forms import ScalarForms
 from magfem.mechanics.models.base import Model
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 
@@ -304,9 +304,13 @@ class Cargo(Obstacle):
         moment = functools.reduce(
             operator.add, [ufl.cross(r, self.traction(f)) for r, f in zip(arm, faces, strict=True)]
         )
-        self._moments = [compile_form(moment[i] * faces[0].measure) for i in range(3)]
         switch = [penalty_ramp(-self.surface(f.position)[0], self.onset)[1] for f in faces]
-        self._stiffness = compile_form(self.stiffness * sum(switch) * faces[0].measure)
+        # the moment about the cargo's centre (3) and the contact stiffness summed over faces
+        self._moment_stiffness = ScalarForms(
+            model.robot.mesh,
+            [moment[i] * faces[0].measure for i in range(3)]
+            + [self.stiffness * sum(switch) * faces[0].measure],
+        )
         self._events: list[str] = []
         self._warned = False
         self.held_time, self.first_held, self.released = 0.0, math.nan, math.nan
@@ -371,13 +375,13 @@ class Cargo(Obstacle):
         return f.sum(axis=0), np.cross(arm, f).sum(axis=0)
 
     def after_step(self) -> None:
-        comm = self.model.robot.mesh.comm
-        on_robot = np.array(assemble_scalars(self._forces, comm))
-        moment = np.array(assemble_scalars(self._moments, comm))
+        on_robot = np.array(self._forces.assemble())
+        *moment_list, stiffness = self._moment_stiffness.assemble()
+        moment = np.array(moment_list)
         t_end = self.model.integrator.time
         span = t_end - self.t_state
         b = self.body
-        coupling = assemble_scalars([self._stiffness], comm)[0] * span**2 / b.mass
+        coupling = stiffness * span**2 / b.mass
         if coupling > 1.0 and not self._warned:
             self._warned = True
             self._events.append(
@@ -409,7 +413,7 @@ class Cargo(Obstacle):
     def observe(self, t: float) -> dict[str, float]:
         self._place(t)
         n, b = self.name, self.body
-        on_cargo = -np.array(assemble_scalars(self._forces, self.model.robot.mesh.comm))
+        on_cargo = -np.array(self._forces.assemble())
         row = {f"{n}_{a}": float(v) for a, v in zip("xyz", b.c, strict=True)}
         row |= {f"{n}_v{a}": float(v) for a, v in zip("xyz", b.V, strict=True)}
         row |= {f"{n}_f{a}": float(v) for a, v in zip("xyz", on_cargo, strict=True)}

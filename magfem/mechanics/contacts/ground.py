@@ -29,7 +29,7 @@ from magfem.mechanics.contacts.penalty import (
     penalty_penetration,
     penalty_ramp,
 )
-from magfem.mechanics.forms import JIT_OPTIONS, assemble_scalars
+from magfem.mechanics.forms import ScalarForms
 from magfem.mechanics.models.base import Face, Model, sum_work
 from magfem.mechanics.spec import ContactSpec
 
@@ -277,9 +277,9 @@ class GroundContact(Contact):
         tractions = [self.plane.traction(f.position, f.velocity) for f in faces]
         total = functools.reduce(operator.add, tractions)
         measure = faces[0].measure
-        self._force_forms = [
-            fem.form(total[i] * measure, jit_options=JIT_OPTIONS) for i in range(model.gdim)
-        ]
+        self._force_forms = ScalarForms(
+            model.robot.mesh, [total[i] * measure for i in range(model.gdim)]
+        )
         self.absorber: ImpactAbsorber | None = None
         if integ.dynamic:
             facets = None if any(f.facets is None for f in faces) else faces[0].facets
@@ -340,7 +340,7 @@ class GroundContact(Contact):
         return ["contact_force", "friction_force"]
 
     def observe(self, t: float) -> dict[str, float]:
-        forces = assemble_scalars(self._force_forms, self.model.robot.mesh.comm)
+        forces = self._force_forms.assemble()
         depth = self.model.depth
         return {
             "contact_force": forces[-1] * depth,

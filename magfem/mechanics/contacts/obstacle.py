@@ -90,9 +90,10 @@ from magfem.mechanics.contacts.rigid import (
     describe_shape,
     signed_distance,
 )
-from magfem.mechanics.forms import assemble_scalars, compile_form
+from magfem.mechanics.forms import ScalarForms
 from magfem.mechanics.models.base import Face, Model, sum_work
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
+from magfem.parallel import JIT_WAIT
 
 __all__ = ["OBSTACLE_SHAPES", "MotionSpec", "Obstacle", "ObstacleSpec", "signed_distance"]
 
@@ -218,9 +219,11 @@ class Obstacle(Contact):
         self._place(model.integrator.time)
         faces = model.faces(*model.accepted(), self.surfaces, nodal=self.nodal)
         total = functools.reduce(operator.add, [self.traction(f) for f in faces])
-        self._forces = [compile_form(total[i] * faces[0].measure) for i in range(gdim)]
+        self._forces = ScalarForms(mesh, [total[i] * faces[0].measure for i in range(gdim)])
         nodes = model.u.function_space.element.interpolation_points
-        self._gaps = [fem.Expression(self.surface(f.position)[0], nodes) for f in faces]
+        self._gaps = [
+            fem.Expression(self.surface(f.position)[0], nodes, jit_options=JIT_WAIT) for f in faces
+        ]
         tdim = mesh.topology.dim
         self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
 
@@ -293,7 +296,7 @@ class Obstacle(Contact):
 
     def observe(self, t: float) -> dict[str, float]:
         self._place(t)
-        forces = assemble_scalars(self._forces, self.model.robot.mesh.comm)
+        forces = self._forces.assemble()
         row = {c: f * self.model.depth for c, f in zip(self.columns()[:-1], forces, strict=True)}
         row[f"{self.name}_gap"] = self.gap()
         return row

@@ -42,7 +42,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from magfem.mechanics.forms import assemble_scalars, compile_form
+from magfem.mechanics.forms import ScalarForms
 from magfem.mechanics.models.base import Model
 from magfem.mechanics.observers.base import Observer
 
@@ -69,7 +69,6 @@ class BodyMotion(Observer):
     """
 
     def __init__(self, model: Model, normal: npt.ArrayLike = (0.0, 0.0, 1.0)):
-        self.comm = model.robot.mesh.comm
         self.depth = model.depth
         state, rates = model.accepted()
         gdim = model.gdim
@@ -83,7 +82,7 @@ class BodyMotion(Observer):
         integrands += [rho * v[i] for i in range(3)]
         integrands += [rho * L[i] for i in range(3)]
         integrands += [rho * x[i] * x[j] for i in range(3) for j in range(i, 3)]
-        self.forms = [compile_form(f * dx) for f in integrands]
+        self.forms = ScalarForms(model.robot.mesh, [f * dx for f in integrands])
         self.normal = np.asarray(normal, dtype=float)
 
     def columns(self) -> list[str]:
@@ -93,7 +92,7 @@ class BodyMotion(Observer):
         return [*cols, "tilt", "tilt_about_x", "tilt_about_y"]
 
     def observe(self, t: float) -> dict[str, float]:
-        values = np.array(assemble_scalars(self.forms, self.comm)) * self.depth
+        values = np.array(self.forms.assemble()) * self.depth
         mass = values[0]
         first, momentum, spin = values[1:4], values[4:7], values[7:10]
         com = first / mass

@@ -39,9 +39,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import ufl
-from mpi4py import MPI
 
-from magfem.mechanics.forms import assemble_scalars, compile_form
+from magfem.mechanics.forms import ScalarForms
 from magfem.mechanics.observers.base import Observer
 
 __all__ = ["STANDARD_WEIGHT_GRAVITY", "Swimming", "summarize_swimming"]
@@ -64,7 +63,7 @@ class Swimming(Observer):
         gdim: the mesh's geometric dimension (2 for strips: (x, z)).
         kinematic_viscosity: ν (m²/s). chord: b (m).
         depth: a strip's depth (m), 1 for 3D models.
-        comm: the mesh's communicator.
+        mesh: the mesh of the forms.
     """
 
     def __init__(
@@ -80,7 +79,7 @@ class Swimming(Observer):
         kinematic_viscosity: float,
         chord: float,
         depth: float,
-        comm: MPI.Comm,
+        mesh: Any,
     ):
         e = np.asarray(direction, dtype=float)
         self.direction = (e if gdim == 3 else e[::2]) / np.linalg.norm(e)
@@ -98,9 +97,9 @@ class Swimming(Observer):
                 for i in range(3)
             ]
         self.names = list(fluid_forms)
-        self.forms = [compile_form(f) for f in mass + list(fluid_forms.values())]
+        self.forms = ScalarForms(mesh, mass + list(fluid_forms.values()))
         self.angles = np.zeros(2)
-        self.gdim, self.depth, self.comm = gdim, depth, comm
+        self.gdim, self.depth = gdim, depth
         self.nu, self.chord = kinematic_viscosity, chord
         self.start: npt.NDArray[np.float64] | None = None
         self.work = 0.0
@@ -124,7 +123,7 @@ class Swimming(Observer):
         ]
 
     def observe(self, t: float) -> dict[str, float]:
-        values = assemble_scalars(self.forms, self.comm)
+        values = self.forms.assemble()
         g = self.gdim
         mass = values[0]
         com = np.asarray(values[1 : 1 + g]) / mass
