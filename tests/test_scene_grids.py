@@ -178,6 +178,7 @@ def test_moving_sources_and_iron_are_drawn_along_their_motion():
     assert np.array(items[2].grid.bounds)[4] == pytest.approx(0.009, abs=TOL)  # the tips
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 @pytest.mark.parametrize(
     ("command", "case", "size"), [("mesh", "pipette", "1.5mm"), ("field", "gripper", "1.2mm")]
 )
