@@ -121,6 +121,11 @@ class Case:
 def _check_consistency(case: Case) -> None:
     """Checks that involve several tables."""
     check_mesh_for_robot(case.robot, case.mesh)
+    for i, spec in enumerate(case.contacts):
+        try:
+            spec.check_field(case.field)
+        except CaseError as err:
+            raise CaseError(f"contacts[{i}].{err.key}", err.value, err.problem) from None
 
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}")

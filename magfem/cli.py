@@ -2,7 +2,9 @@
 
     magfem check CASE [--set KEY=VALUE ...]     validate a case, print its summary
     magfem mesh  CASE [--out DIR] [--format F]  build the robot mesh, write DIR/<name>.msh (.vtu)
+                                                and the scene's picture DIR/<name>.png
     magfem field CASE [--out DIR]               solve the applied field, write VTX/CSV/PNG
+                                                (field.png, and the scene's scene.png)
     magfem run   CASE [--out DIR]               mesh + field + dynamics, write all outputs
                  [--resume DIR | --overwrite]   continue a stopped run / replace a previous one
     magfem sweep CASE --param NAME=VALUES ...   parameter sweep, resumable (magfem.sweep)
@@ -46,6 +48,7 @@ from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.mechanics.solver_options import check_petsc_options
 from magfem.parallel import configure_logging, root_call
 from magfem.pipeline import describe_fluid_of, simulate
+from magfem.plot import plot_scene
 from magfem.provenance import provenance
 from magfem.report import build_report
 from magfem.rundir import prepare_run_directory
@@ -145,6 +148,9 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     )
     _say(comm, "groups    " + ", ".join(sorted(rm.groups)))
     _say(comm, f"wrote     {msh}")
+    png = out / f"{case.name}.png"
+    plot_scene(case, png, robot=rm, comm=comm)
+    _say(comm, f"wrote     {png}")
     if args.format != "msh":
         path = export_robot_mesh(msh, args.format, comm, strip=rm.model == "strip")
         _say(comm, f"wrote     {path}")
@@ -156,6 +162,8 @@ def _cmd_field(args: argparse.Namespace, case: Case | FieldCase, comm: MPI.Comm)
     _make_directory(outdir, comm)
     _write_resolved(case, outdir, comm)
     written = run_field(case, outdir, comm)
+    written["scene"] = outdir / "scene.png"
+    plot_scene(case, written["scene"], comm=comm)
     for label, path in written.items():
         _say(comm, f"wrote     {label}: {path}")
     return 0

@@ -258,7 +258,8 @@ def _contacts(case: Case, model: Model) -> list[Contact]:
         )
     if case.contact.self_contact:
         contacts.append(SelfContact(case.contact, model, shear_modulus=mat.shear_modulus))
-    contacts += [spec.build(model, mat, environment=case.environment) for spec in case.contacts]
+    env, field = case.environment, case.field
+    contacts += [spec.build(model, mat, environment=env, field=field) for spec in case.contacts]
     return contacts
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import pyvista
@@ -27,10 +27,10 @@ from mpi4py import MPI
 
 from magfem.case import parse_case
 from magfem.config import from_table
-from magfem.field.placement import frame
 from magfem.geometry.robot_mesh import RobotMesh, create_robot_mesh
-from magfem.geometry.sources import Ball, Box, Frustum
 from magfem.geometry.spec import SHAPES, MeshSpec, RobotSpec
+from magfem.mechanics.pose import initial_motion
+from magfem.scene_grids import MeshItem, Region, contact_items, source_grids, source_items
 
 __all__ = ["MeshItem", "plot_mesh_groups", "plot_robot", "plot_scene", "robot_grid", "source_grids"]
 
@@ -39,17 +39,6 @@ _PALETTE = [
     "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
     "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
 ]  # fmt: skip
-
-
-class MeshItem(NamedTuple):
-    """One dataset to draw: a pyvista grid and how to show it."""
-
-    grid: Any
-    label: str = ""
-    color: str | None = None
-    scalars: str | None = None  # cell-data name coloured categorically
-    opacity: float = 1.0
-    show_edges: bool = True
 
 
 def robot_grid(robot_mesh: RobotMesh, comm: MPI.Comm | None = None) -> Any:
@@ -185,85 +174,50 @@ def plot_robot(
     )
 
 
-def _solid_grid(part: Any) -> Any:
-    """A pyvista surface of one gmsh primitive of :mod:`magfem.geometry.sources`."""
-    if isinstance(part, Ball):
-        return pyvista.Sphere(radius=part.radius, center=part.center)
-    if isinstance(part, Box):
-        a, b, c = (0.5 * v for v in part.size)
-        box = pyvista.Box(bounds=(-a, a, -b, b, -c, c))
-        box.points = box.points @ np.asarray(part.rotation).T + np.asarray(part.center)
-        return box
-    if isinstance(part, Frustum):
-        base, vec = np.asarray(part.base), np.asarray(part.vector)
-        R = frame(vec / np.linalg.norm(vec))
-        phi = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-        ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)]) @ R.T
-        pts = np.vstack([base + max(part.r0, 1e-9) * ring, base + vec + max(part.r1, 1e-9) * ring])
-    else:
-        pts = np.asarray(part.corners)
-    return pyvista.PolyData(pts).delaunay_3d().extract_surface(algorithm="dataset_surface")
-
-
-def source_grids(sources: Sequence[Any], iron: Sequence[Any] = ()) -> list[MeshItem]:
-    """Solid pictures of the field sources and iron parts of a ``[field]`` table (no MPI).
-
-    Coils and coil pairs are drawn as annular cylinders (their winding
-    cross-section), cylinder magnets as cylinders, block magnets as boxes,
-    each placed by its ``center`` and ``axis``; iron parts (steel blue) by
-    their shapes. Uniform sources have no body.
-    """
-    items: list[MeshItem] = []
-    for i, src in enumerate(sources):
-        if src.kind == "uniform":
-            continue
-        center, axis = np.asarray(src.center, dtype=float), np.asarray(src.unit_axis)
-        if src.kind in ("coil", "coil_pair"):
-            offsets = [0.0] if src.kind == "coil" else [-src.separation / 2, src.separation / 2]
-            for k, off in enumerate(offsets):
-                grid = pyvista.CylinderStructured(
-                    radius=np.linspace(src.inner_radius, src.outer_radius, 2),
-                    height=src.length,
-                    center=center + off * axis,
-                    direction=axis,
-                    theta_resolution=64,
-                    z_resolution=2,
-                )
-                label = f"{src.kind} {i} winding {k + 1}"
-                items.append(MeshItem(grid, label, "#b87333", opacity=0.35, show_edges=False))
-        elif src.kind == "cylinder_magnet":
-            grid = pyvista.Cylinder(
-                center=center, direction=axis, radius=src.radius, height=src.length, resolution=64
-            )
-            items.append(MeshItem(grid, f"magnet {i}", "#708090", show_edges=False))
-        elif src.kind == "block_magnet":
-            rot = tuple(map(tuple, frame(axis, src.roll)))
-            grid = _solid_grid(Box(tuple(src.center), tuple(src.size), rot))
-            items.append(MeshItem(grid, f"magnet {i}", "#708090", show_edges=False))
-    for k, part in enumerate(iron):
-        grid = pyvista.merge([_solid_grid(p) for p in part.body(f"iron_{k + 1}").parts])
-        items.append(MeshItem(grid, f"iron {k} ({part.kind})", "#4682b4", show_edges=False))
-    return items
-
-
 def plot_scene(
-    case: Any, path: Path | str, *, title: str | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+    case: Any,
+    path: Path | str,
+    *,
+    robot: RobotMesh | None = None,
+    title: str | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
 ) -> Path | None:
-    """PNG of a case's robot inside its field sources (coils, magnets); rank 0 writes.
+    """PNG of a case's scene: robot, field sources, iron parts, obstacles, cargo; rank 0 writes.
 
-    The robot is meshed on rank 0 alone (element size min_feature/4); the
-    sources are drawn from the ``[field]`` table. Call on all ranks.
+    Everything is drawn at t = 0 (the robot in its ``[initial]`` placement),
+    and each body that moves also faintly where its path takes it farthest
+    (:mod:`magfem.scene_grids`). ``robot``: the case's distributed robot mesh
+    (gathered, collective); default: the case's robot meshed on rank 0 alone
+    with its ``[mesh]``. A case without a robot (a field-only case) shows its
+    sources about the field's workspace. Call on all ranks.
     """
-    grid = None
+    grid = robot_grid(robot, robot.mesh.comm) if robot is not None else None
+    if comm.rank != 0:
+        return plot_mesh_groups(path, [], comm=comm)
     items: list[MeshItem] = []
-    if comm.rank == 0:
-        rm = create_robot_mesh(case.robot, MeshSpec(size=case.robot.min_feature / 4), MPI.COMM_SELF)
-        grid = robot_grid(rm, MPI.COMM_SELF)
-        items = [
-            *source_grids(case.field.sources, case.field.iron),
-            MeshItem(grid, label="robot", color="#d62728", show_edges=False),
-        ]
+    end = None
+    if hasattr(case, "robot"):
+        if grid is None:
+            rm = create_robot_mesh(case.robot, case.mesh, MPI.COMM_SELF)
+            grid = robot_grid(rm, MPI.COMM_SELF)
+        grid = _placed_robot(case, grid)
+        around = Region.of_bounds(grid.bounds)
+        end = case.time.end
+        items += contact_items(case.contacts, around, end)
+        items.append(MeshItem(grid, label="robot", color="#d62728", show_edges=False))
+    items = source_items(case.field, end) + items
     return plot_mesh_groups(path, items, title=title or case.name, view="iso", comm=comm)
+
+
+def _placed_robot(case: Any, grid: Any) -> Any:
+    """The robot grid moved to its ``[initial]`` placement (a copy; the grid if not placed)."""
+    if not case.initial.moves:
+        return grid
+    px, py, pz = case.robot.position
+    motion = initial_motion(case.initial, (px, py, pz + 0.5 * case.robot.thickness))
+    placed = grid.copy()
+    placed.points = motion.position(np.asarray(grid.points, dtype=float))
+    return placed
 
 
 SCENE_TITLE = "coil pair (115 mm, 35 mm thick, 70 mm apart) with a 7.5 mm trapezoid arm"

@@ -324,6 +324,10 @@ def _tweezers(h, case) -> None:
     assert h["com_vz"][-1] > 0.0 and h["com_z"][-1] > h["com_z"][0]
     assert h["contact_force"][-1] == 0.0
     assert h["tilt"][-1] < math.radians(1)
+    # the prongs are an obstacle: their tip faces 9 mm above the surface, the robot's top face
+    # at 85 um (nodes under the tips: 8.915 mm; the max over face planes never exceeds it)
+    assert 8.8e-3 < h["obstacle_prongs_gap"][0] <= 8.915e-3 + 1e-9
+    assert h["obstacle_prongs_z"][-1] == 0.0
 
 
 COARSE_IRON = ("field.solve.mesh_size=3mm", "field.solve.workspace_mesh_size=1.5mm")

@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
+from magfem.field.spec import FieldSpec
 from magfem.mechanics.models.base import Face, Model
 from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
@@ -107,10 +108,21 @@ class ContactKindSpec(ABC):
 
     @abstractmethod
     def build(
-        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+        self,
+        model: Model,
+        material: MaterialSpec,
+        *,
+        environment: EnvironmentSpec | None = None,
+        field: FieldSpec | None = None,
     ) -> Contact:
         """The contact this table describes, acting on ``model`` of ``material``
-        (``environment``: gravity, for a contact with a body of its own)."""
+        (``environment``: gravity, for a contact with a body of its own; ``field``: the
+        case's ``[field]``, for a contact with its iron parts)."""
+
+    def check_field(self, field: FieldSpec) -> None:
+        """Check what the table names in the case's ``[field]``; raise CaseError (key relative
+        to the table) if it is not there. Tables that name nothing there pass."""
+        return
 
     def describe(self) -> str:
         """One line for ``magfem check``: what this contact is, in mm."""

@@ -82,6 +82,7 @@ import ufl
 
 from magfem.config import MISSING, CaseError, option, quantity, vector
 from magfem.field.placement import frame, rotation
+from magfem.field.spec import FieldSpec
 from magfem.mechanics.contacts.base import CONTACTS, Contact, ContactKindSpec
 from magfem.mechanics.contacts.obstacle import Obstacle
 from magfem.mechanics.contacts.penalty import PenaltyLaw, critical_contact_damping, penalty_ramp
@@ -165,7 +166,12 @@ class CargoSpec(ContactKindSpec):
         )
 
     def build(
-        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+        self,
+        model: Model,
+        material: MaterialSpec,
+        *,
+        environment: EnvironmentSpec | None = None,
+        field: FieldSpec | None = None,
     ) -> Contact:
         gravity = environment.gravity if environment is not None else (0.0, 0.0, 0.0)
         return Cargo(self, model, material, gravity)

@@ -81,6 +81,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from magfem.config import MISSING, CaseError, option, quantity, vector
+from magfem.field.spec import FieldSpec
 from magfem.mechanics.contacts.base import CONTACTS, Contact, ContactKindSpec
 from magfem.mechanics.contacts.penalty import PenaltyLaw, create_penalty_law, penalty_ramp
 from magfem.mechanics.contacts.rigid import (
@@ -157,7 +158,12 @@ class ObstacleSpec(ContactKindSpec):
         )
 
     def build(
-        self, model: Model, material: MaterialSpec, *, environment: EnvironmentSpec | None = None
+        self,
+        model: Model,
+        material: MaterialSpec,
+        *,
+        environment: EnvironmentSpec | None = None,
+        field: FieldSpec | None = None,
     ) -> Contact:
         return Obstacle(self, model, shear_modulus=material.shear_modulus, density=material.density)
 
@@ -170,6 +176,7 @@ class Obstacle(Contact):
         model: the body.
         shear_modulus, density: of the membrane (Pa, kg/m³), which scale the law.
         law: the penalty law (default: the spec's, scaled by the membrane).
+        motion: its keyframed motion (default: the spec's ``motion``).
     """
 
     def __init__(
@@ -180,8 +187,10 @@ class Obstacle(Contact):
         shear_modulus: float,
         density: float,
         law: PenaltyLaw | None = None,
+        motion: MotionSpec | None = None,
     ):
         self.spec = spec
+        self.motion = motion if motion is not None else spec.motion
         self.model = model
         self.name = f"obstacle_{spec.name}"
         self.surfaces = ("all",)
@@ -194,13 +203,13 @@ class Obstacle(Contact):
         self.keep = [0, 1, 2] if gdim == 3 else [0, 2]
         if spec.shape == "box":
             box_frame(spec, gdim)  # a strip needs a box edge along y
-        self.turning = spec.motion is not None and spec.motion.turns
+        self.turning = self.motion is not None and self.motion.turns
         if self.turning and gdim == 2:
-            axis = np.asarray(spec.motion.rotation_axis, dtype=float)
+            axis = np.asarray(self.motion.rotation_axis, dtype=float)
             if not np.allclose(axis[[0, 2]], 0.0):
                 raise CaseError(
                     f"obstacle '{spec.name}'.motion.rotation_axis",
-                    spec.motion.rotation_axis,
+                    self.motion.rotation_axis,
                     "the strip model (x-z side view) can only turn about y",
                 )
         zeros = np.zeros(gdim)
@@ -227,14 +236,18 @@ class Obstacle(Contact):
         tdim = mesh.topology.dim
         self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
 
+    def distance(self, x: Any, offset: Any) -> tuple[Any, Any]:
+        """(g, n) of the shape in its table's placement translated by ``offset`` (UFL)."""
+        return signed_distance(self.spec, x, offset, self.gdim)
+
     def surface(self, x: Any) -> tuple[Any, Any, Any]:
         """(g, n, v): distance (m), unit normal and the obstacle's velocity at x (UFL)."""
         if not self.turning:
-            g, n = signed_distance(self.spec, x, self.offset, self.gdim)
+            g, n = self.distance(x, self.offset)
             return g, n, self.velocity
         R = self.rotation
         arm = x - self.offset
-        g, n = signed_distance(self.spec, R.T * arm + self.pivot, 0.0 * self.offset, self.gdim)
+        g, n = self.distance(R.T * arm + self.pivot, 0.0 * self.offset)
         if self.gdim == 3:
             return g, R * n, self.velocity + ufl.cross(self.spin, arm)
         w = self.spin  # about y: ω × (r_x, 0, r_z) = ω (r_z, 0, −r_x)
@@ -255,9 +268,9 @@ class Obstacle(Contact):
         return sum_work(faces, [self.traction(f) for f in faces])
 
     def _place(self, t: float) -> None:
-        if self.spec.motion is None:
+        if self.motion is None:
             return
-        placed = self.spec.motion.placement(t)
+        placed = self.motion.placement(t)
         keep = self.keep
         self.velocity.value = placed.velocity[keep]  # type: ignore[assignment]
         if not self.turning:
@@ -273,9 +286,9 @@ class Obstacle(Contact):
         self._place(integ.time + float(integ.dt.value))  # it acts at the end of the step
 
     def breakpoints(self, t0: float, t1: float) -> npt.NDArray[np.float64]:
-        if self.spec.motion is None:
+        if self.motion is None:
             return np.zeros(0)
-        times = np.asarray(self.spec.motion.times, dtype=float)
+        times = np.asarray(self.motion.times, dtype=float)
         return times[(times > t0) & (times <= t1)]
 
     def columns(self) -> list[str]:
