@@ -22,6 +22,10 @@ with its own settings here, not the case files' meshes and steps):
   ground, 0–25 ms, the shell's reference of docs/verification.md §4c
   (benchmarks/data/shell_25ms/, P2 0.125 × 0.5 mm, Δt 25 µs).
 
+``phases --run DIR``: steps, Newton iterations and cuts per 25 ms of a run
+of the default case (``magfem run cases/one_arm_trapezoid.toml --out DIR``),
+and its error over 0–25 ms against the shell reference.
+
 ``strip-table``: the grid behind the strip's rows of ``magfem.accuracy.TABLES``
 (``--grid rectangle``: the ``rectangle`` arm at 80 µm, sizes × layers × steps
 against a refined run; ``--grid cantilever``: the same on the ``strip`` case).
@@ -50,6 +54,7 @@ from benchmarks.mechanics_convergence import compare
 from magfem.accuracy import resolve_case
 from magfem.case import Case, apply_overrides, parse_case
 from magfem.config import CaseError
+from magfem.mechanics.columns import read_history
 from magfem.mechanics.simulation import SimulationError
 from magfem.parallel import rank0_print
 from magfem.pipeline import build_simulation
@@ -252,15 +257,48 @@ def _pinned(tables: dict[str, Any], overrides: list[str]) -> Case:
     return parse_case(apply_overrides(tables, overrides), require_units=True)
 
 
+def phases(run_dir: Path, phase: float = 25e-3) -> None:
+    """Steps, Newton iterations and cuts per ``phase`` of a run's history.csv, and its error
+    over the first phase against the shell reference (a run of the default case)."""
+    history = read_history(run_dir / "history.csv")[0]
+    t = history["time"]
+    report = Report(
+        f"{run_dir}: per {phase * 1e3:g} ms",
+        f"{'from ms':>7} {'to ms':>6} {'steps':>5} {'newton':>6} {'cuts':>4} {'min dt us':>9}",
+    )
+    for start in np.arange(0.0, t[-1] - 1e-12, phase):
+        rows = (t > start + 1e-12) & (t <= start + phase + 1e-12)
+        report.row(
+            f"{start * 1e3:7.0f} {(start + phase) * 1e3:6.0f} {int(rows.sum()):5d} "
+            f"{int(history['newton_iterations'][rows].sum()):6d} "
+            f"{int(history['cuts'][rows].sum()):4d} {history['dt'][rows].min() * 1e6:9.3g}"
+        )
+    (ref,) = json.loads(SHELL_REFERENCE.read_text())[-1:]
+    first = t <= phase + 1e-12
+    run = {"time": t[first], "angle": history["angle_arm"][first]}
+    reference = {"time": np.asarray(ref["time"]), "angle": np.asarray(ref["angle"])}
+    error = compare(run, reference)
+    report.add(
+        f"0-{phase * 1e3:g} ms vs the shell reference: max {error[0]:.3f} deg, "
+        f"end {error[1]:.3f} deg"
+    )
+    report.print()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", nargs="?", default="verify", choices=("verify", "strip-table"))
+    parser.add_argument(
+        "mode", nargs="?", default="verify", choices=("verify", "strip-table", "phases")
+    )
+    parser.add_argument("--run", type=Path, help="phases: the run's output directory")
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--targets", nargs="+", type=float, default=[12.0, 5.0, 2.0, 1.0])
     parser.add_argument("--grid", default="rectangle", choices=list(STRIP_GRIDS))
     args = parser.parse_args()
     if args.mode == "strip-table":
         strip_table(args.grid, MPI.COMM_WORLD)
+    elif args.mode == "phases":
+        phases(args.run)
     else:
         verify(args.cases, args.targets, MPI.COMM_WORLD)
 

@@ -14,6 +14,7 @@ from magfem.accuracy import (
     BEND_TIME,
     SLENDERNESS,
     TABLES,
+    TRANSFER_MARGIN,
     WIDTH_PER_BEND_LENGTH,
     resolve_accuracy,
     resolve_case,
@@ -59,7 +60,7 @@ def test_default_trapezoid_takes_the_shell():
     case = load_case(DEFAULT_CASE)
     verdict = rod_adequacy(case)
     assert not verdict.adequate and "not slender" in verdict.reason
-    assert resolve_model(case) == (case, None)  # the file says solid: nothing is chosen
+    assert resolve_model(case) == (case, None)  # the file names its model: nothing is chosen
     auto = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, model="auto"))
     assert resolve_model(auto)[0].mesh.model == "surface"
 
@@ -127,12 +128,18 @@ def test_target_picks_the_cheapest_row_within_it():
 
 
 def test_target_scales_with_the_bend_length_and_time():
-    """At 4 mT ℓ is 1/√2 and τ 1/2 of the tables' (2 mT): sizes and step follow."""
-    base = resolve_accuracy(target_case("1 deg"))[0]
-    strong = resolve_accuracy(target_case("1 deg", flux="4 mT"))[0]
+    """At 4 mT ℓ is 1/√2 and τ 1/2 of the tables' (2 mT): sizes and step follow, and a row
+    counts TRANSFER_MARGIN × its measured error (the 1.92° row serves 4° at both fields,
+    3° only at 2 mT)."""
+    base = resolve_accuracy(target_case("4 deg"))[0]
+    strong = resolve_accuracy(target_case("4 deg", flux="4 mT"))[0]
+    assert base.solver.degree == strong.solver.degree == 2
     assert strong.mesh.size == pytest.approx(base.mesh.size / np.sqrt(2), rel=1e-9)
     assert strong.time.step == pytest.approx(base.time.step / 2, rel=1e-9)
     assert BEND_TIME == pytest.approx(2.54e-3, rel=1e-2)
+    assert TRANSFER_MARGIN == 2.0
+    assert resolve_accuracy(target_case("3 deg"))[0].solver.degree == 2
+    assert resolve_accuracy(target_case("3 deg", flux="4 mT"))[0].solver.degree == 3
 
 
 def test_keys_the_case_sets_win_and_the_run_says_so():
@@ -204,9 +211,12 @@ def test_strip_at_a_target_lands_within_it_of_the_elastica(comm):
     """The static strip cantilever with ``accuracy = "1 deg"`` (no size, no layers given).
 
     Reference: the hard-magnetic elastica (plane-strain modulus, free length)
-    at the ramp's loads. The target picks ℓ/3.45 at the ramp's top field
-    (0.56 mm): measured 0.05-0.09° off. The next coarser row (ℓ/1.7, 1.1 mm,
-    what "5 deg" picks) is 1.4-2.1° off, so a rule one row too coarse fails here.
+    at the ramp's loads. At the ramp's top field (0.4 mT) ℓ is 2.2 × the
+    tables', so a row counts twice its error: the target takes the 0.45° row,
+    0.125 mm × 2.2 = 0.28 mm, measured 0.07-0.13° off (the bonded root's
+    +0.1° floor, docs/verification.md §1). The rows a coarser rule would take
+    give 0.05-0.09° (0.56 mm) and 1.4-2.1° (1.1 mm, the 4.8° row): the
+    assertion fails for the latter.
     """
     modulus = material.plane_strain_modulus(vc.SHEAR_MODULUS, 100 * vc.SHEAR_MODULUS)
     _, fields, fe = vc.static_tip_angles(
@@ -214,3 +224,14 @@ def test_strip_at_a_target_lands_within_it_of_the_elastica(comm):
     )
     error = np.degrees(np.abs(fe - vc.elastica_reference_angles(modulus, fields)))
     assert np.all(error < 1.0), error
+
+
+def test_default_case_is_what_the_one_degree_target_chooses():
+    """cases/one_arm_trapezoid.toml spells out the choices of ``accuracy = "1 deg"``."""
+    case = load_case(DEFAULT_CASE)
+    chosen = resolve_accuracy(target_case("1 deg", "time.end=100ms"))[0]
+    assert case.mesh.model == chosen.mesh.model == "surface"
+    assert case.solver.degree == chosen.solver.degree
+    assert case.mesh.size == pytest.approx(chosen.mesh.size, rel=1e-3)
+    assert case.mesh.size_across == pytest.approx(chosen.mesh.size_across, rel=1e-3)
+    assert case.time.step == pytest.approx(chosen.time.step, rel=1e-3)
