@@ -268,8 +268,10 @@ def resolve_accuracy(case: Case) -> tuple[Case, list[str]]:
         if key in given:
             mine = getattr(getattr(case, table), name)
             values[key] = mine
-            wins = f"set in the case wins over {_show(key, value).split(' = ')[1]} ({why})"
-            lines.append(f"accuracy  {_show(key, mine)} {wins}")
+            theirs = _show(key, value).split(" = ")[1]
+            same = _show(key, mine) == _show(key, value)
+            said = "as the target" if same else f"wins over {theirs}"
+            lines.append(f"accuracy  {_show(key, mine)} set in the case {said} ({why})")
         else:
             values[key] = value
             lines.append(f"accuracy  {_show(key, value)}: {why}")

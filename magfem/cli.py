@@ -136,7 +136,8 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     msh = out / f"{case.name}.msh"
     _make_directory(out, comm)
     t0 = time.perf_counter()
-    rm = create_robot_mesh(case.robot, case.mesh, comm, msh_path=msh)
+    mesh = resolve_case(case)[0].mesh  # the mesh a run would use (accuracy, auto)
+    rm = create_robot_mesh(case.robot, mesh, comm, msh_path=msh)
     ncells = rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global
     _say(comm, _summary(case))
     _say(

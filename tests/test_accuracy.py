@@ -235,3 +235,25 @@ def test_default_case_is_what_the_one_degree_target_chooses():
     assert case.mesh.size == pytest.approx(chosen.mesh.size, rel=1e-3)
     assert case.mesh.size_across == pytest.approx(chosen.mesh.size_across, rel=1e-3)
     assert case.time.step == pytest.approx(chosen.time.step, rel=1e-3)
+
+
+@pytest.mark.serial  # only rank 0 prints
+def test_run_logs_and_records_the_choices(tmp_path, capsys):
+    """``magfem run`` with a target: the choices in the log and in case.resolved.toml.
+
+    The coarsest shell row (P2 0.5 mm, Δt 0.2 ms), two steps, no contact (~3 s).
+    """
+    path = tmp_path / "t.toml"
+    path.write_text(tomli_w.dumps(TRAPEZOID))
+    out = tmp_path / "run"
+    quiet = ["output.vtx_every=0", "output.plot=false", "output.animation=false"]
+    sets = ['solver.accuracy="12 deg"', "time.end=0.4ms", *quiet]
+    assert (
+        main(["run", str(path), "--out", str(out), *[a for s in sets for a in ("--set", s)]]) == 0
+    )
+    log = capsys.readouterr().out
+    assert "accuracy  mesh.size = 0.5 mm: 1.73 per ell" in log
+    resolved = load_case(out / "case.resolved.toml")
+    assert (resolved.mesh.model, resolved.solver.degree) == ("surface", 2)
+    assert resolved.time.step == pytest.approx(2e-4, rel=1e-3)
+    assert "# accuracy  time.step = 200 us: tau / 12.7" in (out / "case.resolved.toml").read_text()
