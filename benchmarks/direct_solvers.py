@@ -71,7 +71,7 @@ CONFIGURATIONS: list[tuple[str, Any]] = [
             TRAPEZOID, pinned_trapezoid("mesh.model=surface", "mesh.size=0.35mm", *QUIET)
         ),
     ),
-    ("solid 1 mm", lambda: load_case(TRAPEZOID, pinned_trapezoid(*QUIET))),
+    ("solid 1 mm (former default case)", lambda: load_case(TRAPEZOID, pinned_trapezoid(*QUIET))),
     ("solid 0.5 mm", lambda: load_case(TRAPEZOID, pinned_trapezoid("mesh.size=0.5mm", *QUIET))),
 ]
 
