@@ -206,7 +206,7 @@ def test_check_prints_the_choices(tmp_path, capsys):
     assert "accuracy  time.step = 50" in out
 
 
-@pytest.mark.slow  # ~2 s: the elastica test's strip forms, one more mesh
+@pytest.mark.slow  # over 0.3 s: the elastica test's strip forms, one more mesh
 def test_strip_at_a_target_lands_within_it_of_the_elastica(comm):
     """The static strip cantilever with ``accuracy = "1 deg"`` (no size, no layers given).
 
@@ -237,11 +237,12 @@ def test_default_case_is_what_the_one_degree_target_chooses():
     assert case.time.step == pytest.approx(chosen.time.step, rel=1e-3)
 
 
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 @pytest.mark.serial  # only rank 0 prints
 def test_run_logs_and_records_the_choices(tmp_path, capsys):
     """``magfem run`` with a target: the choices in the log and in case.resolved.toml.
 
-    The coarsest shell row (P2 0.5 mm, Δt 0.2 ms), two steps, no contact (~3 s).
+    The coarsest shell row (P2 0.5 mm, Δt 0.2 ms), two steps, no contact.
     """
     path = tmp_path / "t.toml"
     path.write_text(tomli_w.dumps(TRAPEZOID))
