@@ -24,14 +24,13 @@ from typing import Any
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from benchmarks._common import Report
+from benchmarks._common import TRAPEZOID, Report, pinned_trapezoid
 from magfem.case import Case, load_case
 from magfem.pipeline import build_simulation
 from verification import setups as vc
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 QUIET = ["time.end=1ms", "output.vtx_every=0", "output.plot=false", "output.csv=false"]
-DEFAULT = CASES / "one_arm_trapezoid.toml"
 REPEATS = 10
 
 
@@ -54,14 +53,26 @@ CONFIGURATIONS: list[tuple[str, Any]] = [
     ("rod 0.25 mm P3", lambda: rod(0.25e-3)),
     ("rod 0.125 mm P3", lambda: rod(0.125e-3)),
     ("strip 0.5 mm (two_arm_20hz)", lambda: load_case(CASES / "two_arm_20hz.toml", QUIET)),
-    ("shell 1 mm", lambda: load_case(DEFAULT, ["mesh.model=surface", "mesh.size=1mm", *QUIET])),
-    ("shell 0.5 mm", lambda: load_case(DEFAULT, ["mesh.model=surface", "mesh.size=0.5mm", *QUIET])),
+    (
+        "shell 1 mm",
+        lambda: load_case(
+            TRAPEZOID, pinned_trapezoid("mesh.model=surface", "mesh.size=1mm", *QUIET)
+        ),
+    ),
+    (
+        "shell 0.5 mm",
+        lambda: load_case(
+            TRAPEZOID, pinned_trapezoid("mesh.model=surface", "mesh.size=0.5mm", *QUIET)
+        ),
+    ),
     (
         "shell 0.35 mm",
-        lambda: load_case(DEFAULT, ["mesh.model=surface", "mesh.size=0.35mm", *QUIET]),
+        lambda: load_case(
+            TRAPEZOID, pinned_trapezoid("mesh.model=surface", "mesh.size=0.35mm", *QUIET)
+        ),
     ),
-    ("solid 1 mm (default case)", lambda: load_case(DEFAULT, QUIET)),
-    ("solid 0.5 mm", lambda: load_case(DEFAULT, ["mesh.size=0.5mm", *QUIET])),
+    ("solid 1 mm (former default case)", lambda: load_case(TRAPEZOID, pinned_trapezoid(*QUIET))),
+    ("solid 0.5 mm", lambda: load_case(TRAPEZOID, pinned_trapezoid("mesh.size=0.5mm", *QUIET))),
 ]
 
 

@@ -1,6 +1,8 @@
 """Speed/accuracy of the mechanics: mesh levels × time steps, 3D solid and 2D strip.
 
-For a case (default: ``cases/one_arm_trapezoid.toml``) over a time window
+For a case (default: ``cases/one_arm_trapezoid.toml``, pinned to the P2 solid
+of ``benchmarks._common.TRAPEZOID_SOLID`` before the grid's own keys and
+``--set``) over a time window
 (default: the first 10 ms, the arm's first swing to ~90°), every combination
 of in-plane mesh size and nominal time step is run; the tip-angle history of
 each run is compared with the finest run (interpolated on its time grid):
@@ -43,6 +45,7 @@ import numpy as np
 from mpi4py import MPI
 
 import magfem  # noqa: F401  (MPI before dolfinx)
+from benchmarks._common import TRAPEZOID, pinned_trapezoid
 from magfem.case import load_case
 from magfem.mechanics.simulation import SimulationError
 from magfem.parallel import rank0_print
@@ -160,7 +163,7 @@ def _load(path: Path) -> list[dict[str, Any]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--case", default=str(REPO / "cases" / "one_arm_trapezoid.toml"))
+    parser.add_argument("--case", default=str(TRAPEZOID))
     parser.add_argument("--strip-case", default=str(REPO / "cases/one_arm_shapes_rectangle.toml"))
     parser.add_argument("--window", type=float, default=0.01, help="simulated time (s)")
     parser.add_argument(
@@ -230,6 +233,8 @@ def main() -> None:
             over.append(f"time.step={dt!r}s")
             if across is not None:
                 over.append(f"mesh.size_across={across!r}m")
+            if Path(args.case) == TRAPEZOID:
+                over = pinned_trapezoid(*over)
             r = run_one(Path(args.case), over, comm)
             if r is None:
                 failed.append(f"{label_of} size {label} mm, dt {dt * 1e3:g} ms")

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from benchmarks._common import pinned_trapezoid
 from magfem.case import load_case
 from magfem.mechanics.columns import read_history
 from magfem.pipeline import simulate
@@ -37,10 +38,10 @@ from magfem.pipeline import simulate
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
 RUNS: dict[str, tuple[str, list[str]]] = {
-    "default_solid": ("one_arm_trapezoid.toml", ["time.end=8ms"]),
+    "default_solid": ("one_arm_trapezoid.toml", pinned_trapezoid("time.end=8ms")),
     "default_shell": (
         "one_arm_trapezoid.toml",
-        ["time.end=8ms", "mesh.model=surface", "mesh.size=1mm"],
+        pinned_trapezoid("time.end=8ms", "mesh.model=surface", "mesh.size=1mm"),
     ),
     "two_arm_strip": ("two_arm_20hz.toml", ["time.end=15ms", "mesh.size=0.5mm"]),
     "bow_tie_self_contact": (

@@ -46,7 +46,15 @@ from typing import Any
 import tomli_w
 
 from magfem import material
-from magfem.config import MISSING, CaseError, build_fields, check_keys, from_table, to_table
+from magfem.config import (
+    MISSING,
+    CaseError,
+    build_fields,
+    check_keys,
+    from_table,
+    not_in_table,
+    to_table,
+)
 from magfem.field.spec import FieldSpec
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 from magfem.mechanics.contacts import ContactKindSpec
@@ -94,6 +102,10 @@ class Case:
     loads: tuple[LoadSpec, ...] = ()
     contacts: tuple[ContactKindSpec, ...] = ()
     description: str = ""
+    given: frozenset[str] | None = not_in_table(
+        doc="the dotted keys the case's tables set (``mesh.size``, ...); None: every key "
+        "counts as set (a case built in code, or resolved by magfem.accuracy)"
+    )
 
     def resolution(self) -> str | None:
         """One line on how well the mesh resolves a field-driven bend, or None.
@@ -179,10 +191,32 @@ def parse_case(data: Mapping[str, Any], *, require_units: bool = False) -> Case:
     raw = data.get("description", "")
     if not isinstance(raw, str):
         raise CaseError("description", raw, "must be a string")
+    given = frozenset(_dotted_keys(data))
     with bare_numbers(bare_si):
-        case = build_fields(Case, data, "")
+        data = _provisional_size(data)
+        case = build_fields(Case, data, "", given=given)
         _check_consistency(case)
     return case
+
+
+def _dotted_keys(data: Mapping[str, Any]) -> Iterable[str]:
+    """``table.key`` for every key of the document's tables (and the top-level keys)."""
+    for name, value in data.items():
+        yield name
+        if isinstance(value, Mapping):
+            yield from (f"{name}.{key}" for key in value)
+
+
+def _provisional_size(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``data`` with ``mesh.size`` = the robot's smallest feature where ``[solver] accuracy``
+    will choose it (magfem.accuracy) and the file leaves it out; else ``data`` itself."""
+    solver, mesh, robot = (data.get(k) for k in ("solver", "mesh", "robot"))
+    if not (isinstance(solver, Mapping) and solver.get("accuracy") is not None):
+        return data
+    if not isinstance(mesh, Mapping) or "size" in mesh or not isinstance(robot, Mapping):
+        return data
+    feature = from_table(RobotSpec, robot, "robot").min_feature
+    return {**data, "mesh": {**mesh, "size": f"{feature!r} m"}}
 
 
 def _parse_override_value(text: str) -> Any:
@@ -323,12 +357,18 @@ def load_case(path: str | Path, overrides: Iterable[str] = ()) -> Case:
 
 
 def write_resolved_case(
-    case: Case | FieldCase, path: str | Path, *, provenance: Mapping[str, str] | None = None
+    case: Case | FieldCase,
+    path: str | Path,
+    *,
+    provenance: Mapping[str, str] | None = None,
+    notes: Iterable[str] = (),
 ) -> Path:
     """Write the case with all defaults filled in, SI numbers (``units = "SI"``), as TOML.
 
     ``provenance`` (versions, commit) goes into the table ``[provenance]``,
     which :func:`parse_case` ignores: the file reads back as the same case.
+    ``notes`` (e.g. the choices of ``[solver] accuracy``) become comment lines
+    of the header.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -336,5 +376,6 @@ def write_resolved_case(
     if provenance:
         table[PROVENANCE_KEY] = dict(provenance)
     header = "# Resolved case written by magfem: every value in SI units, defaults filled in.\n"
+    header += "".join(f"# {line}\n" for line in notes)
     path.write_text(header + tomli_w.dumps(table), encoding="utf-8")
     return path

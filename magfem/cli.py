@@ -38,7 +38,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from magfem import __version__
-from magfem.accuracy import resolve_model, rod_adequacy
+from magfem.accuracy import resolve_case, rod_adequacy
 from magfem.case import Case, FieldCase, load_case, load_field_case, write_resolved_case
 from magfem.config import CaseError
 from magfem.errors import EXIT_FAILED, RunInterrupted, end_with
@@ -89,9 +89,8 @@ def _summary(case: Case) -> str:
         lines.append(f"bending   {resolution}")
     rod = rod_adequacy(case)
     lines.append(f"rod       {'adequate' if rod.adequate else 'not adequate'}: {rod.reason}")
-    choice = resolve_model(case)[1]
-    if choice is not None:
-        lines.append(f"model     {choice}")
+    for choice in resolve_case(case)[1]:
+        lines.append(choice if choice.startswith("accuracy") else f"model     {choice}")
     lines += describe_fluid_of(case)
     return "\n".join(lines)
 
@@ -140,7 +139,8 @@ def _cmd_mesh(args: argparse.Namespace, case: Case, comm: MPI.Comm) -> int:
     msh = out / f"{case.name}.msh"
     _make_directory(out, comm)
     t0 = time.perf_counter()
-    rm = create_robot_mesh(case.robot, case.mesh, comm, msh_path=msh)
+    mesh = resolve_case(case)[0].mesh  # the mesh a run would use (accuracy, auto)
+    rm = create_robot_mesh(case.robot, mesh, comm, msh_path=msh)
     ncells = rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global
     _say(comm, _summary(case))
     _say(
@@ -178,8 +178,9 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm, stop: StopSig
     root_call(comm, lambda: prepare_run_directory(outdir, resume=resume, overwrite=args.overwrite))
     _say(comm, _summary(case))
     _warn_implausible(case)
-    resolved = _write_resolved(case, outdir, comm)
-    _say(comm, f"wrote     resolved case: {resolved}")
+    case, choices = resolve_case(case)  # what _summary said; the run and its record use it
+    written = _write_resolved(case, outdir, comm, notes=choices)
+    _say(comm, f"wrote     resolved case: {written}")
     t0 = time.perf_counter()
     try:
         result = simulate(
@@ -194,10 +195,12 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm, stop: StopSig
     return 0
 
 
-def _write_resolved(case: Case | FieldCase, outdir: Path, comm: MPI.Comm) -> Path:
+def _write_resolved(
+    case: Case | FieldCase, outdir: Path, comm: MPI.Comm, *, notes: Sequence[str] = ()
+) -> Path:
     path = outdir / "case.resolved.toml"
     info = provenance() if comm.rank == 0 else None
-    root_call(comm, lambda: write_resolved_case(case, path, provenance=info))
+    root_call(comm, lambda: write_resolved_case(case, path, provenance=info, notes=notes))
     return path
 
 

@@ -43,6 +43,7 @@ __all__ = [
     "flag",
     "from_table",
     "integer",
+    "not_in_table",
     "option",
     "quantity",
     "to_table",
@@ -277,7 +278,7 @@ def build_fields[T](cls: type[T], table: Mapping[str, Any], where: str, **fixed:
     ``fixed`` holds values the caller already parsed (they bypass ``table``).
     """
     hints = typing.get_type_hints(cls)
-    fields = [f for f in dataclasses.fields(cls) if f.init]  # type: ignore[arg-type]
+    fields = [f for f in dataclasses.fields(cls) if f.init and _in_table(f)]  # type: ignore[arg-type]
     check_keys(table, [f.name for f in fields if f.name not in fixed], where)
     kwargs: dict[str, Any] = dict(fixed)
     for f in fields:
@@ -296,6 +297,15 @@ def build_fields[T](cls: type[T], table: Mapping[str, Any], where: str, **fixed:
         raise CaseError(key, err.value, err.problem) from None
 
 
+def not_in_table(default: Any = None, *, doc: str = "") -> Any:
+    """A field that is no key of the table: set by code, never read from or written to TOML."""
+    return dataclasses.field(default=default, compare=False, metadata={"table": False, "doc": doc})
+
+
+def _in_table(f: dataclasses.Field[Any]) -> bool:
+    return f.metadata.get("table", True) is not False
+
+
 def to_table(obj: Any) -> Any:
     """Inverse of :func:`from_table`: plain TOML-serialisable data (SI numbers).
 
@@ -312,7 +322,7 @@ def to_table(obj: Any) -> Any:
         keep = set(names()) if names is not None else None
         out = {}
         for f in dataclasses.fields(obj):
-            if keep is not None and f.name not in keep:
+            if (keep is not None and f.name not in keep) or not _in_table(f):
                 continue
             value = getattr(obj, f.name)
             if value is None:

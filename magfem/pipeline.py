@@ -21,7 +21,7 @@ import numpy.typing as npt
 import ufl
 from mpi4py import MPI
 
-from magfem.accuracy import resolve_model
+from magfem.accuracy import resolve_case
 from magfem.case import Case
 from magfem.config import CaseError, to_table
 from magfem.field.model import FieldModel, create_field_model
@@ -158,9 +158,9 @@ def build_simulation(
         magfem.config.CaseError: the case cannot be simulated (groups, model refusals).
     """
     t0 = time.perf_counter()
-    case, choice = resolve_model(case)
-    if choice is not None:
-        LOG.info(choice)
+    case, choices = resolve_case(case)
+    for line in choices:
+        LOG.info(line)
     if robot_mesh is None:
         robot_mesh = create_robot_mesh(case.robot, case.mesh, comm)
     if field_model is None:
@@ -396,9 +396,9 @@ def simulate(
         magfem.errors.RunInterrupted: ``stop`` gave a signal; the checkpoint and
             the outputs so far are written.
     """
-    case, choice = resolve_model(case)  # the resolved case names the model it ran
-    if choice is not None:
-        LOG.info(choice)
+    case, choices = resolve_case(case)  # the resolved case names the model and sizes it ran
+    for line in choices:
+        LOG.info(line)
     outdir = Path(outdir)
     table = to_table(case)
     state = None

@@ -33,6 +33,7 @@ __all__ = [
     "UnitError",
     "bare_numbers",
     "dimension_of",
+    "parse_angle",
     "parse_quantity",
     "parse_unit",
 ]
@@ -85,6 +86,7 @@ PREFIXES: tuple[str, ...] = tuple(_PREFIX)
 """SI prefixes, on every symbol but those of :data:`UNPREFIXED`."""
 UNPREFIXED: tuple[str, ...] = tuple(sorted(_NO_PREFIX))
 
+_ANGLE_UNIT = re.compile(r"[0-9.]\s*m?(deg|rad)\s*$")
 _NUMBER = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
 _FACTOR = re.compile(r"^([^\^]+?)(?:\^([+-]?\d+))?$")
 
@@ -173,6 +175,20 @@ def parse_unit(expr: str) -> tuple[float, Dim]:
 def dimension_of(unit: str) -> Dim:
     """Dimension vector (m, kg, s, A) of a unit expression."""
     return parse_unit(unit)[1]
+
+
+def parse_angle(value: object, *, largest: float = math.inf) -> float:
+    """A positive angle written with its unit (``"1 deg"``, ``"0.02 rad"``, ``"5 mrad"``) in rad.
+
+    Raises:
+        UnitError: not a string, no angle unit, not > 0, or above ``largest`` (rad).
+    """
+    if not isinstance(value, str) or _ANGLE_UNIT.search(value) is None:
+        raise UnitError('must be an angle with its unit, e.g. "1 deg"')
+    angle = parse_quantity(value, "rad")
+    if not 0.0 < angle <= largest:
+        raise UnitError(f"must be > 0 deg and <= {math.degrees(largest):g} deg")
+    return angle
 
 
 def parse_quantity(value: object, unit: str) -> float:

@@ -196,3 +196,20 @@ def test_magnetoelastic_length_is_the_decay_length_of_the_elastica():
     window = (s > 4 * ell) & (s < 10 * ell)
     slope = np.polyfit(s[window], np.log(np.abs(deficit[window])), 1)[0]
     assert -1.0 / slope == pytest.approx(ell, rel=1e-3)
+
+
+def test_magnetoelastic_time_is_the_cantilever_period_of_length_ell():
+    """τ = ℓ² √(ρ t/D): a clamped–free Euler–Bernoulli beam ℓ long has ω₁ = (β₁ℓ)²/τ.
+
+    Independent reference: the cantilever frequency of verification.references
+    (β₁ from 1 + cos β cosh β = 0), at the default case's 80 µm and 2 mT.
+    """
+    from verification import references as reference
+
+    t, rho, M, B = 80e-6, 2130.0, 123e3, 2e-3
+    ell = material.magnetoelastic_length(MU, K, t, M, B)
+    tau = material.magnetoelastic_time(MU, K, t, rho, M, B)
+    E = material.youngs_modulus(MU, K)
+    omega = 2 * np.pi * reference.cantilever_frequency(E, rho, t, ell)
+    assert omega * tau == pytest.approx(reference.cantilever_eigenvalue(1) ** 2, rel=1e-12)
+    assert tau == pytest.approx(2.540e-3, rel=1e-3)  # by hand: ℓ² √(12 ρ/(E t²)), E = 2.990 μ

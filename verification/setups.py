@@ -101,7 +101,7 @@ _NO_GRAVITY = {"gravity": [0, 0, 0]}
 
 def cantilever_case(
     model: str,
-    size: float,
+    size: float | None,
     width: float,
     plane: str,
     *,
@@ -110,7 +110,7 @@ def cantilever_case(
     bulk_modulus: float | None = None,
     environment: dict[str, Any] | None = None,
     size_across: float | None = None,
-    layers: int = 1,
+    layers: int | None = 1,
     mesh_options: dict[str, Any] | None = None,
     root: str = "bonded",
     **tables: Any,
@@ -118,13 +118,14 @@ def cantilever_case(
     """The cantilever's case; ``tables`` (``field``, ``time``, ...) are added as they are.
 
     Args:
-        model: ``mesh.model`` (``strip``, ``solid``, ...). size: mesh size (m).
+        model: ``mesh.model`` (``strip``, ``solid``, ...). size: mesh size (m); None
+            leaves it out (for ``[solver] accuracy`` to choose).
         width: arm width (m). plane: ``material.plane`` (``strain``/``stress``).
         remanence: M (A/m). bulk_modulus: K (Pa); None keeps the case default (100 μ).
         environment: the ``[environment]`` table; default no gravity and the
             bonded root strip as the support.
         size_across: ``mesh.size_across`` (m), None: ``size``.
-        layers: ``mesh.layers`` (elements through the thickness).
+        layers: ``mesh.layers`` (elements through the thickness); None leaves it out.
         mesh_options: further ``[mesh]`` keys (``rod_bending``).
         root: ``mesh.root``: ``bonded`` (the glued bottom face) or ``rigid``
             (the whole root block, every node of x <= CLAMP_LENGTH).
@@ -147,7 +148,9 @@ def cantilever_case(
                 "width": width,
                 "clamp_length": CLAMP_LENGTH,
             },
-            "mesh": {"size": size, "model": model, "layers": layers, "root": root}
+            "mesh": {"model": model, "root": root}
+            | ({} if size is None else {"size": size})
+            | ({} if layers is None else {"layers": layers})
             | ({} if size_across is None else {"size_across": size_across})
             | (mesh_options or {}),
             "material": material,
@@ -212,7 +215,7 @@ def static_tip_angles(
     comm: MPI.Comm,
     *,
     model: str,
-    size: float,
+    size: float | None,
     width: float,
     plane: str,
     b_max: float = B_MAX,
@@ -224,6 +227,7 @@ def static_tip_angles(
     layers: int = 1,
     mesh_options: dict[str, Any] | None = None,
     root: str = "bonded",
+    accuracy: str | None = None,
 ) -> tuple[Simulation, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(simulation, B in T, tip angles in rad) at the steps nearest ``fractions`` of the ramp.
 
@@ -231,8 +235,12 @@ def static_tip_angles(
     then evaluated at the field the step did reach (B = t × b_max).
     ``environment`` replaces the default support (the bonded root strip);
     ``step`` is the first quasi-static step (default: the first fraction);
-    ``size_across``, ``layers``, ``root`` and ``mesh_options`` as in :func:`cantilever_case`.
+    ``size_across``, ``layers``, ``root`` and ``mesh_options`` as in :func:`cantilever_case`;
+    ``accuracy``: ``[solver] accuracy`` (then ``size`` None, ``layers`` not set by the case).
     """
+    extra: dict[str, Any] = {}
+    if accuracy is not None:
+        extra["solver"] = {"accuracy": accuracy}
     case = cantilever_case(
         model,
         size,
@@ -242,11 +250,12 @@ def static_tip_angles(
         bulk_modulus=bulk_modulus,
         environment=environment,
         size_across=size_across,
-        layers=layers,
+        layers=None if accuracy is not None else layers,
         mesh_options=mesh_options,
         root=root,
         field={"sources": [field_ramp(b_max)]},
         time={"scheme": "quasi_static", "end": 1.0, "step": step or fractions[0]},
+        **extra,
     )
     sim = build_simulation(case, comm)
     history = sim.run(progress=False).history

@@ -148,7 +148,8 @@ ROOTS = ("bonded", "rigid")
 
 @dataclass(frozen=True)
 class MeshSpec:
-    """``[mesh]``: how the robot is discretised. Only ``size`` is required.
+    """``[mesh]``: how the robot is discretised. Only ``size`` is required (and not even it
+    when ``[solver] accuracy`` chooses it).
 
     ``element = "hex"`` (default) recombines the outline into quadrilaterals
     (gmsh blossom full-quad) and extrudes them into hexahedra
@@ -178,7 +179,9 @@ class MeshSpec:
     shell; ``magfem check`` says which and why).
     """
 
-    size: float = quantity(unit="m", gt=0, doc="in-plane element size")
+    size: float = quantity(
+        unit="m", gt=0, doc="in-plane element size (required unless solver.accuracy is set)"
+    )
     model: str = option("solid", choices=MODELS, doc="solid, strip, surface, rod or auto")
     layers: int = integer(1, ge=1, le=64, doc="elements through the thickness (solid, strip)")
     element: str = option("hex", choices=("hex", "wedge"), doc="hex (quads) or wedge (triangles)")

@@ -38,7 +38,7 @@ from magfem.config import (
     to_table,
     vector,
 )
-from magfem.units import UnitError, parse_quantity
+from magfem.units import UnitError, parse_angle, parse_quantity
 
 __all__ = [
     "ContactSpec",
@@ -289,8 +289,18 @@ class SolverSpec:
         None, ge=0, le=12, doc="degree for K/2 (J−1)² (default reduced: 2 × (degree − 1))"
     )
     petsc_options: dict[str, Any] = field(default_factory=dict)
+    accuracy: str | None = option(
+        None,
+        doc='target tip-angle error, e.g. "1 deg": chooses mesh.model, mesh.size, '
+        "size_across, layers, solver.degree and time.step from measured tables (keys the "
+        "case sets win; magfem check prints the choices); absent: the case's own settings",
+    )
 
     def __post_init__(self) -> None:
+        try:
+            parse_angle(self.accuracy, largest=math.pi / 2) if self.accuracy else None
+        except UnitError as err:
+            raise CaseError("accuracy", self.accuracy, str(err)) from None
         for key, value in self.petsc_options.items():
             if not isinstance(value, str | int | float | bool):
                 raise CaseError(f"petsc_options.{key}", value, "must be a string or number")
