@@ -16,7 +16,7 @@ import tomli_w
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.sweep import build_points, parse_param
+from magfem.sweep import build_points, fingerprint, parse_param
 from verification import setups as vc
 
 CASE = vc.SWEEP_PROBE
@@ -56,6 +56,18 @@ def test_paired_points_zip_the_lists_and_keep_the_crossed_ids():
     assert all(ids[json.dumps(p.params, sort_keys=True)].endswith(p.ident[6:]) for p in paired)
     with pytest.raises(CaseError, match="same length"):
         build_points([("f", ["10Hz", "20Hz"]), ("time.end", ["1ms"])], "fp", paired=True)
+
+
+def test_fingerprint_ignores_comments_and_layout_but_not_values(tmp_path):
+    """Editing a case file's comments keeps its finished points; editing a value does not."""
+    path = _case_file(tmp_path)
+    before = fingerprint(path, ["time.end=1ms"])
+    path.write_text("# a new comment\n\n" + path.read_text().replace(" = ", "   =   "))
+    assert fingerprint(path, ["time.end=1ms"]) == before
+    assert fingerprint(path, ["time.end=2ms"]) != before
+    data = dict(CASE, name="another")
+    path.write_text(tomli_w.dumps(data))
+    assert fingerprint(path, ["time.end=1ms"]) != before
 
 
 @pytest.mark.parametrize(

@@ -25,9 +25,10 @@ through submitit; :mod:`magfem.sweep.engines`).
 
 Resuming. A point is *finished* when ``DIR/points/<id>/point.json`` exists
 and records the same parameters and the same base-case fingerprint (SHA-256
-of the case file text and the ``--set`` overrides); ``<id>`` is itself a hash
-of those, so a changed case gives new points rather than stale ones.
-``point.json`` is written atomically (``os.replace``) only after the run
+of the case file's parsed content, comments left out, and the ``--set``
+overrides); ``<id>`` is itself a hash of those, so a changed case gives
+new points rather than stale ones. ``point.json`` is written atomically
+(``os.replace``) only after the run
 process has exited, so a sweep killed at any moment leaves every point
 either finished or not started/partial, and running the same command again
 computes only what is missing. A point whose run failed (exit status ≠ 0,

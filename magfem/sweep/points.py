@@ -7,6 +7,7 @@ import itertools
 import json
 import math
 import re
+import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,8 +83,13 @@ class Point:
 
 
 def fingerprint(case_path: Path, base_overrides: Sequence[str]) -> str:
-    """SHA-256 (hex) of the case file text and the ``--set`` overrides: a point's base case."""
-    h = hashlib.sha256(case_path.read_bytes())
+    """SHA-256 (hex) of the case file's content and the ``--set`` overrides: a point's base case.
+
+    The content is the parsed TOML (keys sorted), so comments and layout do not count: a
+    case file whose comments change keeps its finished points.
+    """
+    content = tomllib.loads(case_path.read_text(encoding="utf-8"))
+    h = hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode())
     for item in base_overrides:
         h.update(b"\0" + item.encode())
     return h.hexdigest()
