@@ -32,6 +32,7 @@ from magfem.config import (
     MISSING,
     CaseError,
     build_fields,
+    flag,
     integer,
     option,
     quantity,
@@ -287,6 +288,12 @@ class SolverSpec:
     )
     volumetric_quadrature_degree: int | None = integer(
         None, ge=0, le=12, doc="degree for K/2 (J−1)² (default reduced: 2 × (degree − 1))"
+    )
+    mixed_pressure: bool = flag(
+        True,
+        doc="solid and plane-strain strip on quadrilaterals/hexahedra: Newton also solves for "
+        "the pressure K (J−1) at the volumetric quadrature points (same solution, fewer "
+        "iterations)",
     )
     petsc_options: dict[str, Any] = field(default_factory=dict)
 
