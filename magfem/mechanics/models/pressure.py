@@ -46,6 +46,9 @@ from dolfinx import fem
 
 __all__ = ["MIXED_CELLS", "MixedPressure"]
 
+_HUGE = 2.0**100
+"""Pa: a pressure beside which every K (J − 1) vanishes in floating point."""
+
 MIXED_CELLS = ("quadrilateral", "hexahedron")
 """Cells whose reduced Gauss rule is the node set of a discontinuous Lagrange element."""
 
@@ -122,13 +125,14 @@ class MixedPressure:
 
         ``residual_blocks`` evaluates the step residual at the current iterate
         and returns each block's local array (owned and ghost entries): R_p at
-        p = 0 is then K (J − 1) times the diagonal weights, which a second
-        evaluation at p = 1 gives once. Collective.
+        p = 0 is then K (J − 1) times the diagonal weights −∂R_p/∂p, which an
+        evaluation at a huge p gives once. Collective.
         """
         p = self.p.x.array
-        p[:] = 0.0
-        at_zero = residual_blocks()[1]
         if self._weights is None:
-            p[:] = 1.0
-            self._weights = at_zero - residual_blocks()[1]
-        p[:] = at_zero / self._weights
+            # at p = 2¹⁰⁰, K (J − 1) − p rounds to −p: the weights do not depend on the state
+            # (a resumed run computes them at another state and must get the same bits)
+            p[:] = _HUGE
+            self._weights = -residual_blocks()[1] / _HUGE
+        p[:] = 0.0
+        p[:] = residual_blocks()[1] / self._weights
