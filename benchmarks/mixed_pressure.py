@@ -2,22 +2,25 @@
 
 ``[solver] mixed_pressure`` (:mod:`magfem.mechanics.models.pressure`) makes
 Newton solve for the pressure at the volumetric quadrature points with the
-displacement: the same discrete solution, another Newton path. Two sets of
-runs, each with ``mixed_pressure`` true and false, side by side:
+displacement: the same discrete solution, another Newton path. Runs with
+``mixed_pressure`` false and true side by side:
 
 * free vibration (ρ∞ = 1, no gravity): the cantilever of
-  :func:`verification.setups.switch_off_energies` pushed by 2 mT for 3 ms and
-  then free, at a fixed step: the 0.5 mm plane-strain strip (Δt 0.25 ms) and
-  the 2 mm solid (Δt 0.5 ms), 10 ms, Newton rtol 1e-10 (the energy tests')
-  and 1e-6 (the default); the drift of the total energy after the push;
+  :func:`verification.setups.switch_off_case` (80 µm, 2 mT push for 3 ms, then
+  free) for 10 ms: the 0.5 mm plane-strain strip at Δt 0.25 ms and the 2 mm
+  solid at Δt 0.5 ms, fixed steps or the steps of the energy tests after the
+  push (Δt × :data:`verification.setups.STEP_PATTERN`); Newton rtol 1e-10 (the
+  energy tests'), 1e-6 (the default) and 1e-6 with ``force_tolerance`` 0.1;
+  the drift of the total energy after the push;
 * the drives of ``benchmarks.regression_histories`` (``one_arm_trapezoid``
-  8 ms solid, ``two_arm_20hz`` 15 ms strip), adaptive steps as a user runs
-  them, and at the fixed steps of the displacement formulation's run
-  (``time.adaptive = false``), where the two must agree to Newton's tolerance.
+  8 ms solid, ``two_arm_20hz`` 15 ms strip) with adaptive steps as a user runs
+  them, and both variants replaying the displacement run's steps ("same"),
+  where they must agree to Newton's tolerance.
 
-Columns: steps, Newton iterations per step, step cuts, wall time of the
-time loop (s, compilation excluded; wall times vary with the load of the
-shared machine) and the largest angle difference between the two variants
+Columns: steps, Newton iterations per step, step cuts, CPU time of the
+process (s: the time loop; for the adaptive drives the whole run, with the
+forms' compilation cached; CPU rather than wall time, as the machine is
+shared) and the largest angle difference from the displacement formulation
 (deg). From the repository root (serial)::
 
     .venv/bin/python -m benchmarks.mixed_pressure
@@ -31,6 +34,7 @@ import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
 # isort: on
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -40,120 +44,165 @@ from mpi4py import MPI
 from benchmarks._common import Report
 from magfem.case import load_case
 from magfem.pipeline import build_simulation, simulate
-from verification.setups import cantilever_case, relative_drift
+from verification.setups import (
+    SHEAR_MODULUS,
+    STEP_PATTERN,
+    SWITCH_OFF,
+    relative_drift,
+    switch_off_case,
+)
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 QUIET = ["output.vtx_every=0", "output.vtu_every=0", "output.plot=false", "output.animation=false"]
-PUSH = 3e-3  # s
-FREE = (("strip", 0.5e-3, 4e-3, 2.5e-4), ("solid", 2e-3, 2e-3, 5e-4))
-"""(model, mesh size, width, Δt), SI: the free-vibration runs."""
+FREE = {"strip": (0.5e-3, 4e-3, 2.5e-4), "solid": (2e-3, 2e-3, 5e-4)}
+"""model -> (mesh size, width, Δt), SI: the free-vibration runs."""
+TOLERANCES = {
+    "1e-10": {"rtol": 1e-10},
+    "1e-6": {"rtol": 1e-6},
+    "1e-6+ft": {"rtol": 1e-6, "force_tolerance": 0.1},
+}
+"""Newton settings: rtol 1e-10 (the energy tests'), 1e-6 (the default), and with force_tolerance."""
+SHOWN = 5e-3  # s: the step whose residual norms per iteration are printed
 DRIVES = (
-    ("one_arm_trapezoid.toml", ["time.end=8ms"], 1e-4),
-    ("two_arm_20hz.toml", ["time.end=15ms", "mesh.size=0.5mm"], 1e-4),
+    ("one_arm_trapezoid.toml", ["time.end=8ms"]),
+    ("two_arm_20hz.toml", ["time.end=15ms", "mesh.size=0.5mm"]),
 )
-"""(case, overrides, the fixed step (s) of the comparison at equal steps)."""
 
 
-def free_vibration(model: str, size: float, width: float, dt: float, rtol: float, mixed: bool):
-    """(steps, iterations, cuts, wall, drift, tip angles) of the free-vibration run."""
-    field = {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "2 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "dc", "duration": PUSH},
-            }
-        ]
-    }
-    case = cantilever_case(
-        model,
-        size,
-        width,
-        "strain",
-        name="mixed",
-        field=field,
-        solver={"rtol": rtol, "mixed_pressure": mixed},
-        time={"end": 1.0, "step": dt, "rho_inf": 1.0},
-    )
+def free_vibration(
+    model: str, mixed: bool, solver: dict[str, float], pattern: bool, bulk: float | None = None
+):
+    """(steps, iterations, cuts, cpu, drift, tip angles, residual norms of the step ending
+    nearest :data:`SHOWN`) of a free-vibration run; ``bulk``: K (Pa), None: 100 μ."""
+    size, width, dt = FREE[model]
+    case = switch_off_case(model, size, width, dt, steps=1000)
+    case = replace(case, solver=replace(case.solver, mixed_pressure=mixed, **solver))
+    case = replace(case, material=replace(case.material, bulk_modulus=bulk))
     sim = build_simulation(case, MPI.COMM_WORLD)
     sim.initialise()
-    t, iterations, cuts, energy, angles = 0.0, 0, 0, [], []
-    t0 = time.perf_counter()
-    for _ in range(round(10e-3 / dt)):
-        sim.controller.dt = dt
+    norms: list[list[float]] = []
+    sim.solver.snes.setMonitor(lambda snes, it, norm: norms[-1].append(norm))
+    t, iterations, cuts, energy, angles, k, shown = 0.0, 0, 0, [], [], 0, (1.0, [])
+    t0 = time.process_time()
+    while t < 10e-3 - 1e-9:
+        free = t > SWITCH_OFF + 1e-9
+        sim.controller.dt = dt * (STEP_PATTERN[k % len(STEP_PATTERN)] if free and pattern else 1)
+        k += free
+        norms.append([])
         t, report, c = sim.step(t)
+        shown = min(shown, (abs(t - SHOWN), norms[-1]))
         iterations += report.iterations
         cuts += c
         row = sim.observe(t)
         angles.append(row["angle_arm"])
-        if t > PUSH + 1e-9:
+        if t > SWITCH_OFF + 1e-9:
             energy.append(row["energy_total"])
-    wall = time.perf_counter() - t0
-    steps = len(angles)
-    return steps, iterations, cuts, wall, relative_drift(np.array(energy)), np.array(angles)
+    cpu = time.process_time() - t0
+    drift = relative_drift(np.array(energy))
+    return len(angles), iterations, cuts, cpu, drift, np.array(angles), shown[1]
 
 
-def drive(case_file: str, sets: list[str], mixed: bool, step: float | None = None):
-    """(history, wall) of a drive; ``step``: a fixed step (s), None: adaptive steps."""
-    extra = [f"solver.mixed_pressure={'true' if mixed else 'false'}"]
-    if step is not None:
-        extra += ["time.adaptive=false", f"time.step={step!r} s"]
-    case = load_case(CASES / case_file, [*sets, *QUIET, *extra])
+def _case(case_file: str, sets: list[str], mixed: bool) -> Any:
+    return load_case(CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={mixed}".lower()])
+
+
+def drive(case_file: str, sets: list[str], mixed: bool):
+    """(times, angles, iterations, cuts, cpu) of a drive with adaptive steps."""
+    case = load_case(
+        CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={str(mixed).lower()}"]
+    )
     with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.process_time()
         result = simulate(case, Path(tmp) / "run", MPI.COMM_WORLD, progress=False)
-    timings = result.timings
-    wall = timings.get("total", 0.0) - timings.get("compile", 0.0) - timings["mesh_and_field"]
-    return result.history, wall
+        cpu = time.process_time() - t0
+    history = result.history
+    its, cuts = history["newton_iterations"].sum(), history["cuts"].sum()
+    return history["time"], _angles(history), int(its), int(cuts), cpu
+
+
+def replay(case_file: str, sets: list[str], mixed: bool, times: np.ndarray):
+    """(times, angles, iterations, cuts, cpu) of a drive that takes the steps of ``times``."""
+    case = load_case(
+        CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={str(mixed).lower()}"]
+    )
+    sim = build_simulation(case, MPI.COMM_WORLD)
+    sim.initialise()
+    t, its, cuts, rows, reached = 0.0, 0, 0, [sim.observe(0.0)], [0.0]
+    t0 = time.process_time()
+    for dt in np.diff(times):
+        sim.controller.dt = float(dt)
+        t, report, c = sim.step(t)
+        its, cuts = its + report.iterations, cuts + c
+        rows.append(sim.observe(t))
+        reached.append(t)
+    cpu = time.process_time() - t0
+    angles = np.array([[v for k, v in row.items() if k.startswith("angle")] for row in rows])
+    return np.array(reached), angles, its, cuts, cpu
 
 
 def _angles(history: dict[str, Any]) -> np.ndarray:
     return np.column_stack([v for k, v in history.items() if k.startswith("angle")])
 
 
+def _difference(ref: tuple[np.ndarray, np.ndarray], times: np.ndarray, angles: np.ndarray) -> float:
+    """Largest |Δangle| (deg), ``angles`` interpolated onto the reference's times."""
+    t_ref, a_ref = ref
+    other = np.column_stack([np.interp(t_ref, times, a) for a in angles.T])
+    return float(np.degrees(np.nanmax(np.abs(other - a_ref))))
+
+
 def main() -> None:
     report = Report(
-        "free vibration, rho_inf = 1, fixed step, 10 ms (push 3 ms)",
-        f"{'model':6} {'rtol':>6} {'mixed':>5} {'steps':>5} {'it/step':>7} {'cuts':>4} "
-        f"{'wall s':>6} {'drift':>8} {'max dangle':>10}",
+        "free vibration, rho_inf = 1, 10 ms (push 3 ms); steps: fixed or the energy tests' pattern",
+        f"{'model':13} {'steps':7} {'newton':8} {'mixed':>5} {'steps':>5} {'it/step':>7} "
+        f"{'cuts':>4} {'cpu s':>6} {'drift':>8} {'max dangle':>10}",
     )
-    for model, size, width, dt in FREE:
-        for rtol in (1e-10, 1e-6):
-            ref = None
-            for mixed in (False, True):
-                n, its, cuts, wall, drift, ang = free_vibration(model, size, width, dt, rtol, mixed)
-                diff = 0.0 if ref is None else float(np.degrees(np.max(np.abs(ang - ref))))
-                ref = ang if ref is None else ref
-                report.row(
-                    f"{model:6} {rtol:6.0e} {mixed!s:>5} {n:5d} {its / n:7.2f} {cuts:4d} "
-                    f"{wall:6.1f} {drift:8.1e} {diff:10.2e}"
-                )
+    residuals = Report("", "residual norm per Newton iteration, fixed steps, rtol 1e-10, t = 5 ms")
+    for model in FREE:
+        for pattern in (False, True):
+            for tol, solver in TOLERANCES.items():
+                if pattern and tol != "1e-10":
+                    continue
+                ref = None
+                variants = [(False, None), (True, None)]
+                if tol == "1e-10" and not pattern:
+                    variants.append((False, 10 * SHEAR_MODULUS))
+                for mixed, bulk in variants:
+                    n, its, cuts, cpu, drift, ang, norms = free_vibration(
+                        model, mixed, solver, pattern, bulk
+                    )
+                    diff = 0.0 if ref is None else float(np.degrees(np.max(np.abs(ang - ref))))
+                    ref = ang if ref is None else ref
+                    label = f"{model}{'' if bulk is None else ' K=10mu'}"
+                    report.row(
+                        f"{label:13} {'pattern' if pattern else 'fixed':7} {tol:8} {mixed!s:>5} "
+                        f"{n:5d} {its / n:7.2f} {cuts:4d} {cpu:6.1f} {drift:8.1e} {diff:10.2e}"
+                    )
+                    if tol == "1e-10" and not pattern:
+                        residuals.add(
+                            f"{label} mixed={mixed}: " + " ".join(f"{r:.1e}" for r in norms)
+                        )
     report.add(
         "",
-        "drives (adaptive: as a user runs them; fixed: steps of 0.1 ms)",
-        f"{'case':18} {'steps':>6} {'mixed':>5} {'steps':>5} {'it/step':>7} {'cuts':>4} "
-        f"{'wall s':>6} {'max dangle':>10}",
+        "drives: adaptive steps as a user runs them; same: the displacement run's steps",
+        f"{'case':18} {'steps':8} {'mixed':>5} {'steps':>5} {'it/step':>7} {'cuts':>4} "
+        f"{'cpu s':>6} {'max dangle':>10}",
     )
-    for case_file, sets, fixed in DRIVES:
-        for adaptive in (True, False):
-            ref = None
+    for case_file, sets in DRIVES:
+        ref = None
+        for label in ("adaptive", "same"):
             for mixed in (False, True):
-                history, wall = drive(case_file, sets, mixed, None if adaptive else fixed)
-                n = len(history["time"]) - 1
-                its, cuts = history["newton_iterations"].sum(), history["cuts"].sum()
-                ang = _angles(history)
-                diff = 0.0
-                if ref is not None:
-                    t_ref, a_ref = ref
-                    other = np.column_stack([np.interp(t_ref, history["time"], a) for a in ang.T])
-                    diff = float(np.degrees(np.nanmax(np.abs(other - a_ref))))
+                if label == "adaptive":
+                    times, angles, its, cuts, cpu = drive(case_file, sets, mixed)
                 else:
-                    ref = (history["time"], ang)
-                label = "adaptive" if adaptive else "fixed"
+                    times, angles, its, cuts, cpu = replay(case_file, sets, mixed, ref[0])
+                ref = (times, angles) if ref is None else ref
+                n = len(times) - 1
                 report.row(
-                    f"{case_file[:-5]:18} {label:>6} {mixed!s:>5} {n:5d} {its / n:7.2f} "
-                    f"{int(cuts):4d} {wall:6.1f} {diff:10.2e}"
+                    f"{case_file[:-5]:18} {label:8} {mixed!s:>5} {n:5d} {its / n:7.2f} "
+                    f"{cuts:4d} {cpu:6.1f} {_difference(ref, times, angles):10.2e}"
                 )
+    report.lines += residuals.lines
     report.print()
 
 
