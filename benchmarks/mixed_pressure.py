@@ -3,7 +3,8 @@
 ``[solver] mixed_pressure`` (:mod:`magfem.mechanics.models.pressure`) makes
 Newton solve for the pressure at the volumetric quadrature points with the
 displacement: the same discrete solution, another Newton path. Runs with
-``mixed_pressure`` false and true side by side:
+``mixed_pressure`` off and on side by side (column ``mixed``; the default
+``auto`` is on for the solid, off for the strip):
 
 * free vibration (ρ∞ = 1, no gravity): the cantilever of
   :func:`verification.setups.switch_off_case` (80 µm, 2 mT push for 3 ms, then
@@ -76,7 +77,8 @@ def free_vibration(
     nearest :data:`SHOWN`) of a free-vibration run; ``bulk``: K (Pa), None: 100 μ."""
     size, width, dt = FREE[model]
     case = switch_off_case(model, size, width, dt, steps=1000)
-    case = replace(case, solver=replace(case.solver, mixed_pressure=mixed, **solver))
+    switch = "on" if mixed else "off"
+    case = replace(case, solver=replace(case.solver, mixed_pressure=switch, **solver))
     case = replace(case, material=replace(case.material, bulk_modulus=bulk))
     sim = build_simulation(case, MPI.COMM_WORLD)
     sim.initialise()
@@ -103,14 +105,13 @@ def free_vibration(
 
 
 def _case(case_file: str, sets: list[str], mixed: bool) -> Any:
-    return load_case(CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={mixed}".lower()])
+    switch = "on" if mixed else "off"
+    return load_case(CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={switch}"])
 
 
 def drive(case_file: str, sets: list[str], mixed: bool):
     """(times, angles, iterations, cuts, cpu) of a drive with adaptive steps."""
-    case = load_case(
-        CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={str(mixed).lower()}"]
-    )
+    case = _case(case_file, sets, mixed)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.process_time()
         result = simulate(case, Path(tmp) / "run", MPI.COMM_WORLD, progress=False)
@@ -122,9 +123,7 @@ def drive(case_file: str, sets: list[str], mixed: bool):
 
 def replay(case_file: str, sets: list[str], mixed: bool, times: np.ndarray):
     """(times, angles, iterations, cuts, cpu) of a drive that takes the steps of ``times``."""
-    case = load_case(
-        CASES / case_file, [*sets, *QUIET, f"solver.mixed_pressure={str(mixed).lower()}"]
-    )
+    case = _case(case_file, sets, mixed)
     sim = build_simulation(case, MPI.COMM_WORLD)
     sim.initialise()
     t, its, cuts, rows, reached = 0.0, 0, 0, [sim.observe(0.0)], [0.0]

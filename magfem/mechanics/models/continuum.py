@@ -6,7 +6,8 @@ energy per reference volume is the hard-magnetic neo-Hookean law of
 K/2 (J − 1)² integrated at the reduced degree ``volumetric_quadrature_degree``
 (default 2 (degree − 1)); on quadrilaterals and hexahedra Newton solves for
 the pressure at those quadrature points too (:mod:`.pressure`: the same
-solution in fewer iterations; ``[solver] mixed_pressure``). The strip is
+solution in fewer iterations; ``[solver] mixed_pressure``, by default for
+the solid only). The strip is
 plane strain or plane stress (``[material] plane``) and every integral is
 per unit depth; its mesh coordinates are (x, z) and its magnetization and
 field keep their (x, z) components.
@@ -95,7 +96,8 @@ class ContinuumModel(Model):
         q_vol = 2 * (degree - 1) if q_vol is None else q_vol
         self.dx_vol = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q_vol})
         self.volumetric_quadrature_degree = q_vol
-        self.mixed = inputs.solver.mixed_pressure
+        mixed = inputs.solver.mixed_pressure
+        self.mixed = mixed == "on" or (mixed == "auto" and gdim == 3)
         self.ds = ufl.Measure(
             "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
         )
@@ -143,8 +145,10 @@ class ContinuumModel(Model):
     def mixed_pressure(self, points: int) -> MixedPressure | None:
         """The pressure at the volumetric quadrature points (:mod:`.pressure`), or None.
 
-        None with ``[solver] mixed_pressure = false``, for plane stress (no
-        volumetric energy) and on cells other than quadrilaterals and hexahedra.
+        None with ``[solver] mixed_pressure`` off (``auto``: off for the strip,
+        where the larger system costs more than the iterations it saves), for
+        plane stress (no volumetric energy) and on cells other than
+        quadrilaterals and hexahedra.
         """
         domain = self.robot.mesh
         if (
