@@ -3,8 +3,8 @@
 The volumetric energy K/2 (J − 1)² of :mod:`magfem.material` is integrated
 with a reduced rule (``volumetric_quadrature_degree``, default 2 for P2). On
 quadrilaterals and hexahedra that rule is Gauss–Legendre with m + 1 points
-per direction, m = degree // 2: the nodes of the discontinuous Q_m Lagrange
-element of the Gauss–Legendre variant. With p in that space and the two
+per direction, m = (its degree) // 2: the nodes of the discontinuous Q_m
+Lagrange element of the Gauss–Legendre variant. With p in that space and the two
 equations
 
     R_u[w] = … + ∫ p δJ(u)[w] dx_vol,
@@ -19,9 +19,9 @@ formulation recomputes K (J − 1) from every iterate, and a Newton update of a
 rotating thin body, linear in the rotation, changes J by the square of the
 rotation increment, so its next residual carries K × that; here p follows
 the linearised constraint and the residual's second derivative no longer
-scales with K. With K = 100 μ this halves the iterations of the 3D solid and
-removes its step cuts (docs/verification.md, "Newton on near-incompressible
-models").
+scales with K: the 2 mm solid in free vibration at K = 100 μ takes the
+iterations of the displacement formulation at K = 10 μ (docs/verification.md,
+"Newton on the near-incompressible models").
 
 With the average vector field of ρ∞ = 1 (:mod:`magfem.mechanics.integrator`)
 the volumetric force is evaluated at several states u_n + s (u − u_n): p has
