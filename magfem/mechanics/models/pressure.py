@@ -124,15 +124,15 @@ class MixedPressure:
         """p = K (J − 1) at the quadrature points of the current displacement iterate.
 
         ``residual_blocks`` evaluates the step residual at the current iterate
-        and returns each block's local array (owned and ghost entries): R_p at
-        p = 0 is then K (J − 1) times the diagonal weights −∂R_p/∂p, which an
-        evaluation at a huge p gives once. Collective.
+        and returns each block's local array (owned and ghost entries; p's
+        block last): R_p at p = 0 is then K (J − 1) times the diagonal weights
+        −∂R_p/∂p, which an evaluation at a huge p gives once. Collective.
         """
         p = self.p.x.array
         if self._weights is None:
             # at p = 2¹⁰⁰, K (J − 1) − p rounds to −p: the weights do not depend on the state
             # (a resumed run computes them at another state and must get the same bits)
             p[:] = _HUGE
-            self._weights = -residual_blocks()[1] / _HUGE
+            self._weights = -residual_blocks()[-1] / _HUGE
         p[:] = 0.0
-        p[:] = residual_blocks()[1] / self._weights
+        p[:] = residual_blocks()[-1] / self._weights
