@@ -390,6 +390,37 @@ STEP_PATTERN = (1.0, 1.0, 0.5, 0.5, 1.3, 0.7, 1.0, 1.6)
 """Multiples of the nominal step, cycled: the step changes on most steps."""
 
 
+SWITCH_OFF = 3e-3
+"""s: the end of the push of :func:`switch_off_case`."""
+
+
+def switch_off_case(model: str, size: float, width: float, dt: float, *, steps: int) -> Case:
+    """The case of :func:`switch_off_energies`: pushed by 2 mT along −x until
+    :data:`SWITCH_OFF`, ρ∞ = 1, Newton rtol 1e-10, first step ``dt``, time for ``steps``
+    free steps of the step pattern."""
+    field = {
+        "sources": [
+            {
+                "kind": "uniform",
+                "flux_density": "2 mT",
+                "direction": [-1, 0, 0],
+                "waveform": {"kind": "dc", "duration": SWITCH_OFF},
+            }
+        ]
+    }
+    return cantilever_case(
+        model,
+        size,
+        width,
+        "strain",
+        name="energy",
+        field=field,
+        size_across=width if model == "surface" else None,
+        solver={"rtol": 1e-10},
+        time={"end": SWITCH_OFF + 4 * steps * dt, "step": dt, "rho_inf": 1.0},
+    )
+
+
 def switch_off_energies(
     comm: MPI.Comm,
     model: str,
@@ -408,33 +439,11 @@ def switch_off_energies(
     dt during the push; ``steps`` free steps (``steps`` + 1 values; :func:`relative_drift`
     of them is the drift).
     """
-    push = 3e-3
-    field = {
-        "sources": [
-            {
-                "kind": "uniform",
-                "flux_density": "2 mT",
-                "direction": [-1, 0, 0],
-                "waveform": {"kind": "dc", "duration": push},
-            }
-        ]
-    }
-    case = cantilever_case(
-        model,
-        size,
-        width,
-        "strain",
-        name="energy",
-        field=field,
-        size_across=width if model == "surface" else None,
-        solver={"rtol": 1e-10},
-        time={"end": push + 4 * steps * dt, "step": dt, "rho_inf": 1.0},
-    )
-    sim = build_simulation(case, comm)
+    sim = build_simulation(switch_off_case(model, size, width, dt, steps=steps), comm)
     sim.initialise()
     t, k, energy = 0.0, 0, []
     while k <= steps:
-        if t > push + 1e-9:  # after the first step past the switch: the field is off
+        if t > SWITCH_OFF + 1e-9:  # after the first step past the switch: the field is off
             energy.append(sim.observe(t)["energy_total"])
             sim.controller.dt = dt * STEP_PATTERN[k % len(STEP_PATTERN)]
             k += 1

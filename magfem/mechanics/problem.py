@@ -24,7 +24,7 @@ contacts' UFL terms act at the end of the step (x_{n+1}, v_{n+1}), elsewhere at 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,6 +35,7 @@ from magfem.config import CaseError
 from magfem.mechanics.contacts.base import Contact
 from magfem.mechanics.loads.base import Load
 from magfem.mechanics.models.base import Model
+from magfem.mechanics.models.pressure import MixedPressure
 
 __all__ = ["Problem", "build_problem"]
 
@@ -46,7 +47,11 @@ class Problem:
     Attributes:
         model, loads, contacts: the parts.
         residual: the step residual: one form, or the list of block forms of
-            a model with several unknowns.
+            several unknowns.
+        unknowns: what Newton solves for: the model's unknowns, and the
+            pressure of :class:`~magfem.mechanics.models.pressure.MixedPressure`
+            where the model has one.
+        pressure: that pressure, or None (the displacement formulation).
         energy_forms: name -> scalar form at the accepted state (J; J/m for
             strips): ``kinetic``, ``elastic``, each conservative load's and
             each contact's stored energy.
@@ -57,8 +62,11 @@ class Problem:
     contacts: list[Contact]
     residual: Any
     energy_forms: dict[str, ufl.Form]
+    unknowns: list[fem.Function] = field(default_factory=list)
+    pressure: MixedPressure | None = None
     _internal: list[Any] = field(repr=False, default_factory=list)
     _generic: list[fem.Function] = field(repr=False, default_factory=list)
+    _step_internal: list[Any] | None = field(repr=False, default=None)
 
     def continuous_residual(
         self, states: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
@@ -77,17 +85,20 @@ class Problem:
         rates: Sequence[Any],
         accelerations: Sequence[Any],
         potential: Sequence[tuple[float, Sequence[Any]]] | None = None,
+        internal: list[Any] | None = None,
     ) -> list[Any]:
         """Inertia + δΠ − non-conservative load work, per unknown (no contacts).
 
         ``potential``: (weight, state) points where δΠ is evaluated and summed
         (the integrator's average vector field); default δΠ at ``states``.
+        ``internal``: δΠ's forms of the generic unknowns; default the whole potential's.
         """
         model = self.model
         forms: list[Any] = []
+        internal = self._internal if internal is None else internal
         for weight, point in potential or [(1.0, states)]:
             mapping = dict(zip(self._generic, point, strict=True))
-            terms = [ufl.replace(f, mapping) for f in self._internal]
+            terms = [ufl.replace(f, mapping) for f in internal]
             if weight != 1.0:
                 terms = [weight * f for f in terms]
             forms = [a + b for a, b in zip(forms, terms, strict=True)] if forms else terms
@@ -128,27 +139,50 @@ def build_problem(model: Model, loads: Sequence[Load], contacts: Sequence[Contac
             "a free body (no clamped group, no fixed_point) needs a dynamic scheme",
         )
     generic = [fem.Function(u.function_space) for u in model.unknowns]
-    potential = model.elastic_energy(generic)
-    for load in loads:
-        energy = load.energy(model, generic)
-        if energy is not None:
-            potential = potential + energy
-    internal = [
-        ufl.algorithms.expand_derivatives(ufl.derivative(potential, g, w))
-        for g, w in zip(generic, model.tests, strict=True)
-    ]
-    problem = Problem(model, list(loads), list(contacts), None, {}, internal, generic)
+    internal = _internal_forms(model, loads, generic, model.elastic_energy)
+    problem = Problem(model, list(loads), list(contacts), None, {}, list(model.unknowns))
+    problem._internal, problem._generic = internal, generic
     states, rates, accelerations = model.stage()
     dynamic = model.integrator.dynamic
     averaged = model.integrator.potential_points(model.free_body) if dynamic else None
-    forms = problem._balance(states, rates, accelerations, averaged)
+    points = averaged or [(1.0, states)]
+    if not any(c.newton_hooks for c in contacts):
+        problem.pressure = model.mixed_pressure(len(points))
+    pressure = problem.pressure
+    if pressure is not None:
+        problem._step_internal = _internal_forms(model, loads, generic, pressure.other_energy)
+    forms = problem._balance(states, rates, accelerations, averaged, problem._step_internal)
     if model.integrator.dynamic:
         forms = problem._minus_contacts(forms, *model.end_of_step())
     else:
         forms = problem._minus_contacts(forms, states, rates)
-    problem.residual = model.residual_form(forms)
+    if pressure is not None:
+        work, constraint = pressure.residuals(
+            generic[0], model.tests[0], [(w, point[0]) for w, point in points]
+        )
+        forms = [forms[0] + work, *forms[1:], constraint]
+        problem.unknowns.append(pressure.p)
+    problem.residual = forms if len(forms) > 1 else forms[0]
     problem.energy_forms = _energy_forms(model, loads, contacts)
     return problem
+
+
+def _internal_forms(
+    model: Model,
+    loads: Sequence[Load],
+    generic: list[fem.Function],
+    elastic: Callable[[Sequence[Any]], Any],
+) -> list[Any]:
+    """δΠ of the generic unknowns per unknown, Π = ``elastic`` + the loads' energies."""
+    potential = elastic(generic)
+    for load in loads:
+        energy = load.energy(model, generic)
+        if energy is not None:
+            potential = potential + energy
+    return [
+        ufl.algorithms.expand_derivatives(ufl.derivative(potential, g, w))
+        for g, w in zip(generic, model.tests, strict=True)
+    ]
 
 
 def _energy_forms(

@@ -106,7 +106,7 @@ class Simulation:
         self.u = model.u
         self.solver = NewtonSolver(
             problem.residual,
-            model.unknowns if len(model.unknowns) > 1 else model.u,
+            problem.unknowns if len(problem.unknowns) > 1 else model.u,
             model.bcs,
             solver,
             name="step",
@@ -201,6 +201,8 @@ class Simulation:
     def _before_solve(self) -> None:
         for contact in self.problem.contacts:
             contact.before_solve()
+        if self.problem.pressure is not None:
+            self.problem.pressure.guess(self.solver.residual_blocks)
 
     def settle(self, *, smallest: float = 1.0 / 1024) -> int:
         """Quasi-static: solve the equilibrium at t₀ by load continuation of the constant loads.

@@ -33,6 +33,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -222,6 +224,7 @@ class NewtonSolver:
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
         self._wrap_callbacks(list(bcs), homogeneous_bcs)
         self.force_scale: float | None = None
+        self._residual_functions: list[fem.Function] | None = None
         if force_scale is not None:
             self.set_force_scale(force_scale)
 
@@ -324,6 +327,24 @@ class NewtonSolver:
 
         snes.setFunction(residual, problem.b)
         snes.setJacobian(jacobian, problem.A, problem.P_mat)
+
+    def residual_blocks(self) -> list[npt.NDArray[np.float64]]:
+        """The residual at the current unknowns, one local array (owned and ghost) per block.
+
+        Evaluated as Newton evaluates it (hooks and Dirichlet rows included;
+        collective); one array for a single unknown.
+        """
+        problem = self.problem
+        funcs = self.u if isinstance(self.u, Sequence) else [self.u]
+        if self._residual_functions is None:
+            self._residual_functions = [fem.Function(f.function_space) for f in funcs]
+        out = self._residual_functions
+        fem_petsc.assign(list(funcs) if len(funcs) > 1 else funcs[0], problem.x)  # type: ignore[arg-type]
+        self.snes.computeFunction(problem.x, problem.b)
+        fem_petsc.assign(problem.b, out if len(out) > 1 else out[0])  # type: ignore[arg-type]
+        for f in out:
+            f.x.scatter_forward()
+        return [f.x.array.copy() for f in out]
 
     @property
     def snes(self) -> PETSc.SNES:

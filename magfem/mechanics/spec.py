@@ -288,6 +288,12 @@ class SolverSpec:
     volumetric_quadrature_degree: int | None = integer(
         None, ge=0, le=12, doc="degree for K/2 (J−1)² (default reduced: 2 × (degree − 1))"
     )
+    mixed_pressure: str = option(
+        "auto",
+        ("auto", "on", "off"),
+        doc="Newton also solves for the pressure K (J−1) at the volumetric quadrature points "
+        "(quadrilaterals/hexahedra; same solution); auto: on for the solid, off for the strip",
+    )
     petsc_options: dict[str, Any] = field(default_factory=dict)
     accuracy: str | None = option(
         None,

@@ -48,11 +48,15 @@ class Contact:
         surfaces: the model's contact faces it acts on (``[contact] surfaces`` style names).
         nodal: its faces are integrated at the nodes (Gauss–Lobatto,
             :meth:`~magfem.mechanics.models.base.Model.faces`).
+        newton_hooks: it adds terms to the displacement's residual and
+            Jacobian through :meth:`attach` (Newton then solves for the model's
+            unknowns alone, without a mixed pressure).
     """
 
     name = "contact"
     surfaces: tuple[str, ...] = ("all",)
     nodal: bool = False
+    newton_hooks: bool = False
 
     def work(self, faces: Sequence[Face]) -> list[ufl.Form] | None:
         """Virtual work per unknown of its tractions on ``faces``, or None (no UFL terms)."""

@@ -30,6 +30,7 @@ from magfem.config import CaseError
 from magfem.geometry.robot_mesh import Arm, RobotMesh
 from magfem.mechanics.block_integrator import BlockIntegrator
 from magfem.mechanics.integrator import TimeIntegrator
+from magfem.mechanics.models.pressure import MixedPressure
 from magfem.mechanics.pose import RigidMotion
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec, SolverSpec, TimeSpec
 from magfem.plugins import Registry
@@ -302,6 +303,14 @@ class Model(ABC):
     def accepted(self) -> tuple[list[Any], list[Any]]:
         """(state, rates) of the last accepted step t_n as Functions (after ``advance``)."""
         return list(self.unknowns), [p.v0 for p in self.integrator.parts]
+
+    def mixed_pressure(self, points: int) -> MixedPressure | None:
+        """The pressure Newton solves for with the displacement, or None (the default).
+
+        ``points``: the states per step at which the potential's forces act
+        (:meth:`~magfem.mechanics.integrator.TimeIntegrator.potential_points`).
+        """
+        return None
 
     def residual_form(self, forms: list[Any]) -> Any:
         """The residual as NewtonSolver takes it: one form, or the list of block forms."""

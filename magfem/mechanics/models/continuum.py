@@ -4,10 +4,13 @@ Total Lagrangian, unknown u (Lagrange ``degree``, gdim components). The
 energy per reference volume is the hard-magnetic neo-Hookean law of
 :mod:`magfem.material`: ψ_el(F) − (F M̃)·B_a(X + u), with the volumetric part
 K/2 (J − 1)² integrated at the reduced degree ``volumetric_quadrature_degree``
-(default 2 (degree − 1)). The strip is plane strain or plane stress
-(``[material] plane``) and every integral is per unit depth; its mesh
-coordinates are (x, z) and its magnetization and field keep their (x, z)
-components.
+(default 2 (degree − 1)); on quadrilaterals and hexahedra Newton solves for
+the pressure at those quadrature points too (:mod:`.pressure`: the same
+solution in fewer iterations; ``[solver] mixed_pressure``, by default for
+the solid only). The strip is
+plane strain or plane stress (``[material] plane``) and every integral is
+per unit depth; its mesh coordinates are (x, z) and its magnetization and
+field keep their (x, z) components.
 
 Contact faces: the boundary facets of ``[contact] surfaces`` (``"all"``: the
 whole boundary; ``bottom`` and ``clamp`` are skipped where a robot lacks
@@ -38,6 +41,7 @@ from magfem.mechanics.models.base import (
     nodal_metadata,
     time_integrator,
 )
+from magfem.mechanics.models.pressure import MIXED_CELLS, MixedPressure
 from magfem.mechanics.models.supports import (
     clamped_entities,
     create_magnetization,
@@ -91,6 +95,9 @@ class ContinuumModel(Model):
         q_vol = inputs.solver.volumetric_quadrature_degree
         q_vol = 2 * (degree - 1) if q_vol is None else q_vol
         self.dx_vol = ufl.Measure("dx", domain=domain, metadata={"quadrature_degree": q_vol})
+        self.volumetric_quadrature_degree = q_vol
+        mixed = inputs.solver.mixed_pressure
+        self.mixed = mixed == "on" or (mixed == "auto" and gdim == 3)
         self.ds = ufl.Measure(
             "ds", domain=domain, subdomain_data=robot.facet_tags, metadata={"quadrature_degree": q}
         )
@@ -126,8 +133,39 @@ class ContinuumModel(Model):
     def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
         F = material.deformation_gradient(state[0])
         return (
-            material.isochoric_energy(F, self.mu, self.kinematics) * self.dx
+            self.isochoric_energy(state)
             + material.volumetric_energy(F, self.K, self.kinematics) * self.dx_vol
+        )
+
+    def isochoric_energy(self, state: Sequence[Any]) -> ufl.Form:
+        """The elastic energy without its volumetric part (J; J/m for strips)."""
+        F = material.deformation_gradient(state[0])
+        return material.isochoric_energy(F, self.mu, self.kinematics) * self.dx
+
+    def mixed_pressure(self, points: int) -> MixedPressure | None:
+        """The pressure at the volumetric quadrature points (:mod:`.pressure`), or None.
+
+        None with ``[solver] mixed_pressure`` off (``auto``: off for the strip,
+        where the larger system costs more than the iterations it saves), for
+        plane stress (no volumetric energy) and on cells other than
+        quadrilaterals and hexahedra.
+        """
+        domain = self.robot.mesh
+        if (
+            not self.mixed
+            or self.kinematics == "plane_stress"
+            or domain.topology.cell_name() not in MIXED_CELLS
+        ):
+            return None
+        return MixedPressure(
+            domain,
+            self.volumetric_quadrature_degree,
+            points,
+            self.K,
+            self.dx_vol,
+            lambda u: ufl.det(material.deformation_gradient(u)),
+            self.thickness,
+            self.isochoric_energy,
         )
 
     def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:

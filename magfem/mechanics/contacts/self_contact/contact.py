@@ -48,6 +48,7 @@ class SelfContact(Contact):
     """
 
     name = "self_contact"
+    newton_hooks = True
 
     def __init__(self, spec: ContactSpec, model: Model, *, shear_modulus: float):
         if len(model.unknowns) != 1:
