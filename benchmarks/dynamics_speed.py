@@ -57,6 +57,8 @@ def _assembly_times(sets: list[str], n: int) -> dict[str, tuple[float, float]]:
     from magfem.pipeline import build_simulation
 
     comm = MPI.COMM_WORLD
+    # the displacement formulation: its Jacobian's kernels are what is timed
+    sets = ["solver.mixed_pressure=off", *sets]
     sim = build_simulation(load_case(CASE, pinned_trapezoid(*sets)), comm)
     problem, snes, bcs = sim.solver.problem, sim.solver.snes, sim.model.bcs
     rng = np.random.default_rng(comm.rank)
@@ -120,7 +122,7 @@ def _kernel_times(sim: object, n: int) -> dict[str, tuple[float, float]]:
     from magfem.mechanics.solver import FORM_COMPILER_OPTIONS, JIT_OPTIONS
 
     problem = sim.problem  # type: ignore[attr-defined]
-    jacobian = ufl.derivative(problem.residual, problem.u)
+    jacobian = ufl.derivative(problem.residual, problem.model.u)
     out: dict[str, tuple[float, float]] = {}
     for i, integral in enumerate(jacobian.integrals()):
         form = fem.form(
@@ -160,6 +162,8 @@ def run(sets: list[str], save: str | None = None) -> None:
 
     comm = MPI.COMM_WORLD
     c0, t0 = time.process_time(), time.perf_counter()
+    # the displacement formulation: its Jacobian's kernels are what is timed
+    sets = ["solver.mixed_pressure=off", *sets]
     sim = build_simulation(load_case(CASE, pinned_trapezoid(*sets)), comm)
     result = sim.run(progress=False)
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
