@@ -394,10 +394,18 @@ SWITCH_OFF = 3e-3
 """s: the end of the push of :func:`switch_off_case`."""
 
 
-def switch_off_case(model: str, size: float, width: float, dt: float, *, steps: int) -> Case:
+def switch_off_case(
+    model: str,
+    size: float,
+    width: float,
+    dt: float,
+    *,
+    steps: int,
+    solver: dict[str, Any] | None = None,
+) -> Case:
     """The case of :func:`switch_off_energies`: pushed by 2 mT along −x until
-    :data:`SWITCH_OFF`, ρ∞ = 1, Newton rtol 1e-10, first step ``dt``, time for ``steps``
-    free steps of the step pattern."""
+    :data:`SWITCH_OFF`, ρ∞ = 1, Newton rtol 1e-10 (and the ``solver`` keys given), first
+    step ``dt``, time for ``steps`` free steps of the step pattern."""
     field = {
         "sources": [
             {
@@ -416,7 +424,7 @@ def switch_off_case(model: str, size: float, width: float, dt: float, *, steps: 
         name="energy",
         field=field,
         size_across=width if model == "surface" else None,
-        solver={"rtol": 1e-10},
+        solver={"rtol": 1e-10, **(solver or {})},
         time={"end": SWITCH_OFF + 4 * steps * dt, "step": dt, "rho_inf": 1.0},
     )
 
