@@ -135,12 +135,15 @@ def plot_sweep(
                 y,
                 marker="o",
                 ls=("-", "--", ":", "-.")[ki % 4],
-                color=f"C{gi % 10}",
+                color=f"C{(gi if len(groups) > 1 else ki) % 10}",
                 label=f"{k.removeprefix('max_angle_')}" + (f" ({tag})" if tag else ""),
             )
-    if not numeric:
+    if numeric:  # ticks at the values, labelled as the sweep wrote them ("0.3mm", "20Hz")
+        ticks = {r["si"][x_name]: r["params"][x_name] for r in done}
+        ax.set_xticks(list(ticks), list(ticks.values()))
+    else:
         ax.set_xticks(range(len(categories)), categories)
-    ax.set_xlabel(f"{x_name}" + (" (SI)" if numeric else ""))
+    ax.set_xlabel(x_name)
     ax.set_ylabel("max bending angle (deg)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
