@@ -52,9 +52,11 @@ touches it and the floor does not).
 History: ``cargo_<name>_x``, ``_y``, ``_z`` (centre, m), ``_vx``, ``_vy``,
 ``_vz`` (m/s), ``_fx``, ``_fy``, ``_fz`` (the robot's force on the cargo, N),
 ``_floor`` (the floor's upward force, N), ``_held`` (1 or 0) and ``_gap``
-(the robot's smallest distance to it, m). Summary: ``cargo_<name>_held_time``
-(s held in all), ``_first_held`` and ``_released`` (the first instant held,
-the first instant not held after it; nan if none).
+(the robot's smallest distance to it, m). Summary (from the ``_held`` column,
+:func:`magfem.mechanics.observers.summary.summarize_cargo`): ``cargo_<name>_held_time``
+(s held in all), ``_first_held`` and ``_released`` (the first instant held;
+the instant after the last held one, if the run ends with the cargo not held;
+nan if none).
 
     [[contacts]]
     kind = "cargo"
@@ -319,9 +321,6 @@ class Cargo(Obstacle):
         )
         self._events: list[str] = []
         self._warned = False
-        self.held_time, self.first_held, self.released = 0.0, math.nan, math.nan
-        self._held = False
-        self._last_t = self.t_state
 
     @property
     def turning(self) -> bool:  # type: ignore[override]
@@ -427,7 +426,6 @@ class Cargo(Obstacle):
         held = self._is_held(on_cargo)
         row[f"{n}_held"] = float(held)
         row[f"{n}_gap"] = self.gap()
-        self._track(t, held)
         return row
 
     def _is_held(self, on_cargo: npt.NDArray[np.float64]) -> bool:
@@ -437,20 +435,3 @@ class Cargo(Obstacle):
             return bool(np.linalg.norm(on_cargo) > 0.0 and self.floor_force == 0.0)
         up = -self.gravity / g
         return bool(self.floor_force < 0.01 * weight and on_cargo @ up >= 0.5 * weight)
-
-    def _track(self, t: float, held: bool) -> None:
-        if held and not self._held and math.isnan(self.first_held):
-            self.first_held = t
-        if not held and self._held and math.isnan(self.released):
-            self.released = t
-        if held and self._held:
-            self.held_time += t - self._last_t
-        self._held, self._last_t = held, t
-
-    def summary(self) -> dict[str, float]:
-        n = self.name
-        return {
-            f"{n}_held_time": self.held_time,
-            f"{n}_first_held": self.first_held,
-            f"{n}_released": self.released,
-        }

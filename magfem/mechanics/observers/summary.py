@@ -27,6 +27,7 @@ __all__ = [
     "bending_speed",
     "history_summary",
     "max_over_window",
+    "summarize_cargo",
     "summarize_midline",
 ]
 
@@ -120,9 +121,9 @@ def history_summary(
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
     force; nan if none) and ``max_self_contact_force`` (N); and
-    :func:`summarize_midline`, for a free body :func:`summarize_body` and, in a
-    fluid, :func:`summarize_swimming`. Columns that are absent give no entry;
-    blank samples (nan) are skipped.
+    :func:`summarize_midline`, for a free body :func:`summarize_body`, for a
+    cargo :func:`summarize_cargo` and, in a fluid, :func:`summarize_swimming`.
+    Columns that are absent give no entry; blank samples (nan) are skipped.
     """
     t = np.asarray(history["time"], dtype=float)
     out: dict[str, float] = {}
@@ -141,6 +142,7 @@ def history_summary(
                 )
     out |= summarize_midline(history)
     out |= summarize_body(history)
+    out |= summarize_cargo(history)
     for column, key in (("strain", "max_strain"), ("bending_strain", "max_bending_strain")):
         if column in history:
             out[key] = float(np.nanmax(history[column]))
@@ -163,3 +165,24 @@ def max_over_window(
     """max |value| over t0 <= t <= t1 (nan when no sample lies there)."""
     mask = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
     return float(np.nanmax(np.abs(values[mask]))) if np.any(mask) else float("nan")
+
+
+def summarize_cargo(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
+    """Per ``cargo_<name>_held`` column (1 or 0 per sample): ``cargo_<name>_first_held`` (s, the
+    first sample held; nan if never), ``_released`` (s, the first sample after the last held
+    one, when the run ends with the cargo not held; nan if it is held at the end or never) and
+    ``_held_time`` (s, summed over the intervals held at both ends). A grip that flickers
+    (contact forces that dip below half the weight for a step) is not a release."""
+    t = np.asarray(history["time"], dtype=float)
+    out: dict[str, float] = {}
+    for key, values in history.items():
+        if not (key.startswith("cargo_") and key.endswith("_held")):
+            continue
+        name = key.removesuffix("_held")
+        held = np.nan_to_num(np.asarray(values, dtype=float)) > 0.5
+        both = held[1:] & held[:-1]
+        last = int(np.flatnonzero(held)[-1]) if held.any() else -1
+        out[f"{name}_first_held"] = float(t[np.argmax(held)]) if held.any() else math.nan
+        out[f"{name}_released"] = float(t[last + 1]) if 0 <= last < t.size - 1 else math.nan
+        out[f"{name}_held_time"] = float(np.sum(np.diff(t)[both]))
+    return out
