@@ -115,7 +115,7 @@ def test_target_picks_the_cheapest_row_within_it():
     fine = min(shell, key=lambda r: r.error)
     case, lines = resolve_accuracy(target_case(f"{p3.error * 1.01} deg"))
     assert case.mesh.model == "surface" and case.solver.degree == 3
-    assert case.mesh.size == pytest.approx(p3.size * 1.0000, rel=1e-3)  # ℓ = BEND_LENGTH here
+    assert case.mesh.size == pytest.approx(p3.size, rel=1e-3)  # ℓ = BEND_LENGTH: the row's size
     assert case.mesh.size_across == pytest.approx(p3.across, rel=1e-3)
     assert case.time.step == pytest.approx(p3.step, rel=1e-3)
     assert case.given is None  # resolved: a second pass changes nothing
