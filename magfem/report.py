@@ -5,8 +5,9 @@ The studies are data (:mod:`magfem.study`): one file per scene in
 (:func:`magfem.sweep.run_sweep`, so an interrupted report resumes where it
 stopped) and the summary scalars to tabulate. ``magfem report --run`` runs
 what is missing (``--only ID`` restricts to some scenes); without ``--run`` it
-only reads finished runs. The page is rebuilt from scratch each time; for
-each scene it gives
+only reads finished runs. The page is rebuilt each time, except that with
+``--only`` the other scenes keep their section and summary row as the page
+has them (their runs may live on another machine); for each scene it gives
 
 * the set-up: the case's description and command, the assumptions (every
   case-file line marked ``# ASSUMED``) and the missing physics (its
@@ -129,6 +130,9 @@ def build_report(
     ``retry_failed`` reruns points recorded as failed (passed to
     :func:`magfem.sweep.run_sweep`); ``jobs`` runs that many points at once.
 
+    With ``only``, a scene not named keeps its row and section from the existing page
+    (rebuilt from ``out`` when the page lacks it).
+
     Raises:
         CaseError: a bad study file, or an unknown scene id in ``only``.
     """
@@ -148,7 +152,14 @@ def build_report(
         "| --- | --- | --- | --- |",
     ]
     body: list[str] = []
+    path = docs / "scenes.md"
+    kept = _page_scenes(path) if only else {}
     for study in all_studies:
+        if study.ident not in only and study.ident in kept:
+            row, section = kept[study.ident]
+            lines.append(row)
+            body += section
+            continue
         sweep_dir = out / study.ident
         if run and (not only or study.ident in only):
             sweep = functools.partial(run_sweep, jobs=jobs, retry_failed=retry_failed, echo=echo)
@@ -164,9 +175,33 @@ def build_report(
         )
         body += _scene_section(study, records, reason, sweep_dir, figures, docs)
     text = "\n".join([*lines, "", *body]) + "\n"
-    path = docs / "scenes.md"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def _page_scenes(path: Path) -> dict[str, tuple[str, list[str]]]:
+    """The summary-table row and the section (from its ``## id`` heading to the next) of
+    each scene on an existing page; empty when there is no page."""
+    if not path.is_file():
+        return {}
+    rows: dict[str, str] = {}
+    sections: dict[str, list[str]] = {}
+    current: list[str] | None = None
+    for line in path.read_text(encoding="utf-8").splitlines():
+        row = re.match(r"\| \[([^\]]+)\]\(#\1\) \|", line)
+        if row and current is None:
+            rows[row.group(1)] = line
+        elif line.startswith("## "):
+            current = sections.setdefault(line[3:].strip(), [])
+        if current is not None:
+            current.append(line)
+
+    def trimmed(section: list[str]) -> list[str]:
+        while section and not section[-1].strip():
+            section.pop()
+        return [*section, ""]
+
+    return {k: (rows[k], trimmed(sections[k])) for k in rows.keys() & sections.keys()}
 
 
 def _records(

@@ -110,3 +110,33 @@ def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monk
     assert row.endswith("| 0.001 |")  # end_time: the run reached its end, 1 ms
     again = build_report(tmp_path / "out", **kwargs).read_text()  # read only: same table
     assert row in again
+
+
+def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo, monkeypatch):
+    """``only``: the named scene is rebuilt from its runs, every other scene keeps its row and
+    section from the existing page, though its runs are not in ``out``."""
+    monkeypatch.chdir(repo)
+    docs = tmp_path / "docs"
+    page = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
+    # another machine's runs: a finished five-arm row and section on the page
+    page = page.replace(
+        "| [five-arm](#five-arm) | missing | 0/– | 0 |",
+        "| [five-arm](#five-arm) | predicted | 1/1 | 7 |",
+    ).replace("## five-arm\n", "## five-arm\n\nA row from elsewhere.\n")
+    (docs / "scenes.md").write_text(page)
+    study = next(s for s in load_studies() if s.ident == "two-arm-20hz")
+    fprint = fingerprint(Path(study.case), study.sets)
+    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
+    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
+    point.mkdir(parents=True)
+    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+    (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+    again = build_report(tmp_path / "out", only=["two-arm-20hz"], docs=docs, echo=None)
+    text = again.read_text()
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in text
+    assert "| [five-arm](#five-arm) | predicted | 1/1 | 7 |" in text
+    assert "## five-arm\n\nA row from elsewhere.\n" in text
+    assert text.count("\n## ") == page.count("\n## ")  # every scene once, in its place
+    # a full report (no ``only``) rebuilds every scene from ``out``
+    full = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
+    assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
