@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from magfem.case import parse_case
+from magfem.case import load_case, parse_case
 from magfem.config import CaseError, to_table
 from magfem.errors import RunInterrupted
 from magfem.mechanics.checkpoint import (
@@ -74,6 +74,26 @@ def test_resume_gives_the_uninterrupted_history_bit_for_bit(comm, shared_tmp):
         assert (cut / "displacement.1.bp").is_dir()  # the VTX series goes on in a new file
     # a checkpointed run that resumed ends with a current checkpoint
     assert json.loads((cut / "checkpoint" / "meta.json").read_text())["reason"] == "end"
+
+
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
+@pytest.mark.parametrize("scene", ["gripper", "pipette"])
+def test_resume_restores_cargo_and_obstacles(scene, comm, shared_tmp, repo):
+    """The gripper's cargo (a rigid body advanced between steps) and the pipette's moving
+    tip (an obstacle whose impact absorber remembers the nodes inside it) resume bit for
+    bit: their state is in the checkpoint."""
+    overrides = ["mesh.size=1.2mm", "time.end=2ms", "time.step=0.25ms", "output.csv=true"]
+    overrides += ["output.vtx_every=0", "output.plot=false", "output.animation=false"]
+    case = load_case(repo / "cases" / f"{scene}.toml", overrides)
+    full = simulate(case, shared_tmp / "full", comm, progress=False)
+    cut = shared_tmp / "cut"
+    with pytest.raises(RunInterrupted):
+        simulate(case, cut, comm, progress=False, stop=_stop_at(4))
+    comm.barrier()
+    resumed = simulate(case, cut, comm, progress=False, resume=True)
+    assert resumed.history.keys() == full.history.keys()
+    for key, values in full.history.items():
+        np.testing.assert_array_equal(resumed.history[key], values, err_msg=key)
 
 
 def test_resume_refuses_a_changed_case(comm, shared_tmp):

@@ -74,7 +74,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -274,6 +274,8 @@ class Cargo(Obstacle):
         gravity: the acceleration of gravity (3,) (m/s²).
     """
 
+    absorbs_impacts = False  # the cargo takes the robot's momentum through the contact
+
     def __init__(
         self, spec: CargoSpec, model: Model, material: MaterialSpec, gravity: Sequence[float]
     ):
@@ -406,6 +408,31 @@ class Cargo(Obstacle):
     def events(self) -> list[str]:
         out, self._events = self._events, []
         return out
+
+    def state(self) -> dict[str, Any]:
+        """The rigid body's state and the time it was advanced to (checkpoints)."""
+        b = self.body
+        return {
+            "center": b.c.copy(),
+            "velocity": b.V.copy(),
+            "rotation": b.R.copy(),
+            "spin": b.w.copy(),
+            "t_state": float(self.t_state),
+            "floor_force": float(self.floor_force),
+            "warned": bool(self._warned),
+        }
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        b = self.body
+        b.c = np.asarray(state["center"], dtype=float).copy()
+        b.V = np.asarray(state["velocity"], dtype=float).copy()
+        b.R = np.asarray(state["rotation"], dtype=float).copy()
+        b.w = np.asarray(state["spin"], dtype=float).copy()
+        self.t_state = float(state["t_state"])
+        self.floor_force = float(state["floor_force"])
+        self._warned = bool(state["warned"])
+        self._place(self.t_state)
 
     # --- observation ----------------------------------------------------------------------------
 

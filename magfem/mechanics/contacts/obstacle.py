@@ -41,8 +41,11 @@ each step; the keyframes are switching instants the steps land on.
 The contact law is the ground's penalty with friction
 (:mod:`magfem.mechanics.contacts.penalty`) on the penetration δ = −g, with
 the velocity relative to the moving obstacle, acting at the end of the step
-in dynamic runs. Not modelled: the impact absorption of the ground (a
-landing on an obstacle rebounds as the generalized-α update makes it). On a
+in dynamic runs. After each accepted dynamic step,
+:class:`ObstacleAbsorber` makes impacts on it perfectly inelastic in the
+normal direction, as the ground's absorber does for landings (a node that
+has entered the obstacle loses the normal velocity with which it leaves it;
+docs/untethered.md, "Impacts on obstacles"). On a
 strip (side view) the obstacle is its section in the x–z plane (vectors
 keep their x and z; it may only turn about y). History: ``obstacle_<name>_x``,
 ``_y`` (3D only), ``_z``: the force of the obstacle on the robot (N; N/m ×
@@ -70,7 +73,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -96,7 +99,14 @@ from magfem.mechanics.models.base import Face, Model, sum_work
 from magfem.mechanics.spec import EnvironmentSpec, MaterialSpec
 from magfem.parallel import JIT_WAIT
 
-__all__ = ["OBSTACLE_SHAPES", "MotionSpec", "Obstacle", "ObstacleSpec", "signed_distance"]
+__all__ = [
+    "OBSTACLE_SHAPES",
+    "MotionSpec",
+    "Obstacle",
+    "ObstacleAbsorber",
+    "ObstacleSpec",
+    "signed_distance",
+]
 
 OBSTACLE_SHAPES = ("half_space", "sphere", "cylinder", "cone", "box")
 _KEYS = {
@@ -177,7 +187,13 @@ class Obstacle(Contact):
         shear_modulus, density: of the membrane (Pa, kg/m³), which scale the law.
         law: the penalty law (default: the spec's, scaled by the membrane).
         motion: its keyframed motion (default: the spec's ``motion``).
+
+    Attributes:
+        absorbs_impacts: impacts are made inelastic by an :class:`ObstacleAbsorber`
+            (dynamic runs); a body that takes momentum from the robot must not.
     """
+
+    absorbs_impacts = True
 
     def __init__(
         self,
@@ -235,6 +251,12 @@ class Obstacle(Contact):
         ]
         tdim = mesh.topology.dim
         self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        self.absorber: ObstacleAbsorber | None = None
+        if model.integrator.dynamic and self.absorbs_impacts:
+            contact = [
+                ufl.as_vector([g, *n, *w]) for g, n, w in (self.surface(f.position) for f in faces)
+            ]
+            self.absorber = ObstacleAbsorber(model.u.function_space, contact)
 
     def distance(self, x: Any, offset: Any) -> tuple[Any, Any]:
         """(g, n) of the shape in its table's placement translated by ``offset`` (UFL)."""
@@ -285,6 +307,22 @@ class Obstacle(Contact):
         integ = self.model.integrator
         self._place(integ.time + float(integ.dt.value))  # it acts at the end of the step
 
+    def after_step(self) -> None:
+        if self.absorber is not None:
+            integ = self.model.integrator
+            self.absorber.apply(integ.v0, integ.a0)
+
+    def state(self) -> dict[str, Any]:
+        """The nodes inside the obstacle at the last step (the impact absorber's memory)."""
+        if self.absorber is None:
+            return {"touching": np.zeros(0, dtype=np.int64)}
+        return {"touching": self.absorber.touching_global()}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        if self.absorber is not None:
+            self.absorber.set_touching_global(np.asarray(state["touching"], dtype=np.int64))
+
     def breakpoints(self, t0: float, t1: float) -> npt.NDArray[np.float64]:
         if self.motion is None:
             return np.zeros(0)
@@ -313,3 +351,98 @@ class Obstacle(Contact):
         row = {c: f * self.model.depth for c, f in zip(self.columns()[:-1], forces, strict=True)}
         row[f"{self.name}_gap"] = self.gap()
         return row
+
+
+class ObstacleAbsorber:
+    """Perfectly inelastic normal impact of the body's nodes on a rigid obstacle.
+
+    The counterpart of the ground's
+    :class:`~magfem.mechanics.contacts.ground.ImpactAbsorber` for a surface of
+    any shape and motion: a node stopped by the penalty within a step leaves
+    it with the velocity the generalized-α update reverses, so an impact
+    rebounds at a speed set by the step, not by the contact law (the ground's
+    measurements: docs/verification.md, "Impact").
+
+    After each accepted step, every node of the displacement whose face point
+    is inside the obstacle (g < 0; of a shell's two faces, the deeper) loses
+    its velocity *out of* the obstacle relative to the obstacle's surface,
+    (v − w)·n > 0, and its normal acceleration: at the step it arrives, and
+    later only when it leaves faster than ``rest_velocity`` (resting and
+    sliding contact are left alone, as on the ground). Tangential motion is
+    left to friction.
+
+    Args:
+        V: the displacement space (blocked vector Lagrange, gdim components).
+        contact: per face, the UFL vector (g, n, w) at the face's points of the
+            accepted state: signed distance (m), the obstacle's outward unit
+            normal and its surface velocity (m/s), evaluated at V's nodes.
+        rest_velocity: the bounce threshold (m/s) of nodes already inside.
+
+    :meth:`apply` is collective.
+    """
+
+    def __init__(self, V: Any, contact: Sequence[Any], *, rest_velocity: float = 1e-3) -> None:
+        mesh = V.mesh
+        self.mesh = mesh
+        self.bs = V.dofmap.index_map_bs
+        self.rest_velocity = float(rest_velocity)
+        nodes = V.element.interpolation_points
+        self._contact = [fem.Expression(c, nodes, jit_options=JIT_WAIT) for c in contact]
+        tdim = mesh.topology.dim
+        self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        self._dofs = np.asarray(V.dofmap.list)[self._cells]  # (cells, nodes per cell)
+        imap = V.dofmap.index_map
+        self._owned = imap.size_local
+        self._global = imap.local_to_global(np.arange(imap.size_local + imap.num_ghosts))
+        self.touching = np.zeros(
+            self._global.size, dtype=bool
+        )  # local nodes inside at the last call
+
+    def apply(self, v: Any, a: Any) -> int:
+        """Remove the outward normal velocity/acceleration of nodes that hit the obstacle.
+
+        Args:
+            v, a: velocity and acceleration Functions of ``V`` at t_{n+1} (the
+                integrator's v_n, a_n after ``advance``), changed in place.
+
+        Returns:
+            the number of nodes reset (global).
+        """
+        bs = self.bs
+        inside = np.zeros(0, dtype=np.int64)
+        reset_count = 0
+        if self._cells.size:
+            ncell, nper = self._dofs.shape
+            values = np.concatenate(
+                [e.eval(self.mesh, self._cells).reshape(ncell * nper, -1) for e in self._contact]
+            )
+            node = np.tile(self._dofs.ravel(), len(self._contact))
+            hit = values[:, 0] < 0.0
+            values, node = values[hit], node[hit]
+            deepest = np.argsort(values[:, 0], kind="stable")
+            inside, first = np.unique(node[deepest], return_index=True)  # the deeper face per node
+            values = values[deepest[first]]
+            n, w = values[:, 1 : 1 + bs], values[:, 1 + bs : 1 + 2 * bs]
+            vel = v.x.array.reshape(-1, bs)
+            acc = a.x.array.reshape(-1, bs)
+            vn = np.einsum("ij,ij->i", vel[inside] - w, n)
+            fresh = ~self.touching[inside]
+            reset = (vn > 0.0) & (fresh | (vn > self.rest_velocity))
+            idx = inside[reset]
+            vel[idx] -= vn[reset, None] * n[reset]
+            acc[idx] -= np.einsum("ij,ij->i", acc[idx], n[reset])[:, None] * n[reset]
+            reset_count = int(np.count_nonzero(idx < self._owned))
+        self.touching[:] = False
+        self.touching[inside] = True
+        v.x.scatter_forward()
+        a.x.scatter_forward()
+        return int(self.mesh.comm.allreduce(reset_count))
+
+    def touching_global(self) -> npt.NDArray[np.int64]:
+        """Global indices of the nodes inside at the last call (every rank's; collective)."""
+        mine = self._global[self.touching]
+        return np.unique(np.concatenate(self.mesh.comm.allgather(mine)))
+
+    def set_touching_global(self, nodes: npt.NDArray[np.int64]) -> None:
+        """Restore :meth:`touching_global`."""
+        self.touching = np.isin(self._global, nodes)
