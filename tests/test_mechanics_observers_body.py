@@ -229,6 +229,14 @@ def test_transition_time_interpolates_the_thresholds():
         (2 + 2 / 3) - 1.5
     )
     assert math.isnan(transition_time(t, tilt, math.radians(30), math.radians(60)))
+    # standing at the start, lying, then up again (the walker's first reversal): the stand-up
+    # is the second crossing, from the last ≤ 30° sample (t = 5, 20°) to the first ≥ 60°
+    # after it (t = 6, 80°): 30° at 5 + 10/60 and 60° at 5 + 40/60
+    t = np.arange(8.0)
+    tilt = np.radians([90.0, 70.0, 50.0, 20.0, 10.0, 20.0, 80.0, 90.0])
+    assert transition_time(t, tilt, math.radians(30), math.radians(60)) == pytest.approx(
+        (5 + 40 / 60) - (5 + 10 / 60)
+    )
 
 
 def test_body_summary_distances_and_times():

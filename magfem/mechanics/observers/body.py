@@ -120,22 +120,24 @@ def transition_time(
 ) -> float:
     """Duration (s) of the first crossing of ``values`` from ``start`` to ``stop`` (nan if none).
 
-    From the last sample on ``start``'s side (≤ start when start < stop, else
-    ≥ start) before the first sample past ``stop``, to that sample; both
-    instants interpolated linearly to the thresholds.
+    The first sample past ``stop`` that follows a sample on ``start``'s side
+    (≤ start when start < stop, else ≥ start) ends it; the last sample on
+    ``start``'s side before it begins it; both instants interpolated linearly
+    to the thresholds. Samples past ``stop`` before the body ever was on
+    ``start``'s side (a robot that starts upright, for its stand-up) do not count.
     """
     t = np.asarray(times, dtype=float)
     sign = 1.0 if stop > start else -1.0
     y = sign * np.asarray(values, dtype=float)
     a, b = sign * start, sign * stop
-    past = np.flatnonzero(y >= b)
-    if past.size == 0 or past[0] == 0:
+    on_start = np.flatnonzero(y <= a)
+    if on_start.size == 0:
         return math.nan
-    j = int(past[0])
-    before = np.flatnonzero(y[:j] <= a)
-    if before.size == 0:
+    past = np.flatnonzero(y[on_start[0] :] >= b)
+    if past.size == 0:
         return math.nan
-    i = int(before[-1])
+    j = int(on_start[0] + past[0])
+    i = int(np.flatnonzero(y[:j] <= a)[-1])
 
     def cross(k: int, level: float) -> float:
         if y[k + 1] == y[k]:
