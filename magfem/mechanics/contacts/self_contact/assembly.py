@@ -30,6 +30,7 @@ import ufl
 from dolfinx import fem, la
 from petsc4py import PETSc
 
+from magfem.mechanics.block_integrator import BlockIntegrator
 from magfem.mechanics.contacts.self_contact.search import SurfacePairing
 from magfem.mechanics.forms import JIT_OPTIONS
 from magfem.mechanics.integrator import TimeIntegrator
@@ -43,10 +44,11 @@ class CoupledTerms:
 
     Args:
         pairing: the paired contact surfaces (its x̄, n̄ and u_geom).
-        integrator: the time integrator (the stage weights place the terms).
+        integrator: the time integrator (the stage weights place the terms), of the
+            displacement alone or of all the model's unknowns.
     """
 
-    def __init__(self, pairing: SurfacePairing, integrator: TimeIntegrator):
+    def __init__(self, pairing: SurfacePairing, integrator: TimeIntegrator | BlockIntegrator):
         self.pairing = pairing
         self.integrator = integrator
         self._bc_global = np.zeros(0, dtype=np.int64)
@@ -76,15 +78,20 @@ class CoupledTerms:
     def attach(self, solver: NewtonSolver, bcs: Sequence[fem.DirichletBC]) -> None:
         """Add the coupled contact terms to ``solver``'s residual and Jacobian (collective).
 
-        ``bcs`` are the (homogeneous) Dirichlet conditions of ``solver``:
-        entries in their rows or columns are left out of the Jacobian.
+        ``bcs`` are the (homogeneous) Dirichlet conditions of the displacement:
+        entries in their rows or columns are left out of the Jacobian. The
+        displacement is ``solver``'s only unknown or its first block (the
+        shell's u before its angles): its dofs are numbered as the solver's
+        vectors number them (:meth:`SurfacePairing.number_rows`).
         """
+        self.pairing.number_rows(int(solver.problem.x.getOwnershipRange()[0]))
+        row = self.pairing.row
         bs = self.pairing.V.dofmap.index_map_bs
         owned = [np.zeros(0, dtype=np.int64)]
         for bc in bcs:
             dofs, num_owned = bc.dof_indices()
             local = np.asarray(dofs[:num_owned], dtype=np.int64)
-            owned.append(bs * self.pairing.v_global[local // bs] + local % bs)
+            owned.append(row[local // bs] + local % bs)
         self._bc_global = np.unique(
             np.concatenate(self.pairing.comm.allgather(np.concatenate(owned)))
         )
@@ -101,10 +108,14 @@ class CoupledTerms:
 
     def _state(self, x: Any) -> npt.NDArray[np.int64]:
         """Set u_geom to the stage displacement of the iterate ``x`` and x̄ to the current
-        master nodes (collective); returns the global master node per local V node."""
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with x.localForm() as local:
-            self.pairing.u_geom.x.array[:] = local.array_r
+        master nodes (collective); returns the master's row (first component) per local V node.
+
+        The displacement's owned entries are the first ones of ``x`` on every rank.
+        """
+        u_geom = self.pairing.u_geom
+        owned = self.pairing.V.dofmap.index_map.size_local * self.pairing.V.dofmap.index_map_bs
+        u_geom.x.array[:owned] = x.array_r[:owned]
+        u_geom.x.scatter_forward()
         integ = self.integrator
         if integ.dynamic and integ.params is not None:
             af = integ.params.alpha_f
@@ -127,10 +138,10 @@ class CoupledTerms:
         slave = fem.assemble_vector(self._slave_form)
         slave.scatter_reverse(la.InsertMode.add)
         n = self.pairing.V.dofmap.index_map.size_local * self.pairing.V.dofmap.index_map_bs
-        with b.localForm() as local:
+        with b.localForm() as local:  # the displacement's owned entries come first
             local.array[:n] += slave.array[:n]
         master = fem.assemble_vector(self._master_form).array  # local + ghost nodes, unsummed
-        rows = (gdim * target[:, None] + np.arange(gdim)).ravel()
+        rows = (target[:, None] + np.arange(gdim)).ravel()
         keep = master != 0.0
         rows, values = rows[keep], master[keep]
         b.setValues(rows.astype(PETSc.IntType), values, addv=PETSc.InsertMode.ADD)
@@ -152,8 +163,8 @@ class CoupledTerms:
         gdim = self.pairing.gdim
         target = self._state(x)
         bs = self.pairing.V.dofmap.index_map_bs
-        v_rows = (bs * self.pairing.v_global[:, None] + np.arange(bs)).ravel()
-        x_rows = (gdim * target[:, None] + np.arange(gdim)).ravel()
+        v_rows = (self.pairing.row[:, None] + np.arange(bs)).ravel()
+        x_rows = (target[:, None] + np.arange(gdim)).ravel()
         rows, cols, vals = [], [], []
         for (form, mat), (r_map, c_map) in zip(
             self._blocks,

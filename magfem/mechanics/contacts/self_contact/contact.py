@@ -24,13 +24,16 @@ from magfem.mechanics.contacts.base import Contact
 from magfem.mechanics.contacts.self_contact.assembly import CoupledTerms
 from magfem.mechanics.contacts.self_contact.law import TOUCH, create_self_contact_law
 from magfem.mechanics.contacts.self_contact.search import SurfacePairing
-from magfem.mechanics.integrator import TimeIntegrator
+from magfem.mechanics.contacts.self_contact.shell import ShellPairing
 from magfem.mechanics.models.base import Model
 from magfem.mechanics.solver import NewtonSolver
 from magfem.mechanics.spec import ContactSpec
 from magfem.parallel import JIT_WAIT
 
 __all__ = ["SelfContact"]
+
+_PAIRINGS: dict[str, type[SurfacePairing]] = {"shell": ShellPairing}
+"""The pairing of a model's kinematics when not the continuum's (faces of the cells)."""
 
 
 class SelfContact(Contact):
@@ -39,32 +42,34 @@ class SelfContact(Contact):
     Args:
         spec: ``[contact]`` (penalty, onset, exclusion, groups; default groups:
             the robot's arms).
-        model: the body; a continuum model (one displacement unknown).
+        model: the body: a continuum model (solid, strip: the groups' boundary
+            faces touch) or the shell (the groups' mid-surfaces, a thickness
+            apart when they touch, :mod:`.shell`).
         shear_modulus: μ (Pa), which scales the penalty stiffness.
 
     Raises:
-        CaseError: a model with more unknowns than the displacement (the
-            shell), fewer than two groups, an unknown or non-cell group.
+        CaseError: another model (the rod), fewer than two groups, an unknown
+            or non-cell group.
     """
 
     name = "self_contact"
     newton_hooks = True
 
     def __init__(self, spec: ContactSpec, model: Model, *, shear_modulus: float):
-        if len(model.unknowns) != 1:
+        pairing = _PAIRINGS.get(model.kinematics, SurfacePairing)
+        if len(model.unknowns) != 1 and pairing is SurfacePairing:
             raise CaseError(
-                "contact.self_contact", True, "arm-arm contact needs the solid or strip model"
+                "contact.self_contact",
+                True,
+                "arm-arm contact needs the solid, strip or surface (shell) model",
             )
         self.model = model
         robot = model.robot
         law = create_self_contact_law(spec, shear_modulus=shear_modulus, thickness=robot.thickness)
         groups = spec.self_contact_groups or tuple(arm.name for arm in robot.arms)
         V = model.u.function_space
-        self.pairing = p = SurfacePairing(
-            robot, V, groups, law, quadrature_degree=model.quadrature_degree
-        )
+        self.pairing = p = pairing(robot, V, groups, law, quadrature_degree=model.quadrature_degree)
         integ = model.integrator
-        assert isinstance(integ, TimeIntegrator)  # one unknown
         self.integrator = integ
         self.terms = CoupledTerms(p, integ)
         X = ufl.SpatialCoordinate(V.mesh)
@@ -89,7 +94,7 @@ class SelfContact(Contact):
         return self.pairing.energy(X + model.u)
 
     def attach(self, solver: NewtonSolver) -> None:
-        self.terms.attach(solver, self.model.bcs)
+        self.terms.attach(solver, self.model.displacement_bcs)
 
     def add_residual(self, x: Any, b: Any) -> None:
         """The coupled residual terms at the iterate ``x`` (see :class:`CoupledTerms`)."""

@@ -45,13 +45,13 @@ Parallel.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import ufl
+from dolfinx import cpp as _cpp
 from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
@@ -60,6 +60,7 @@ from scipy.spatial import cKDTree
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh, locate
 from magfem.mechanics.contacts.penalty import penalty_energy, penalty_ramp
+from magfem.mechanics.contacts.self_contact.geometry import facet_normals, facing, inside
 from magfem.mechanics.contacts.self_contact.law import (
     ADJACENT,
     CANDIDATES,
@@ -115,14 +116,14 @@ class SurfacePairing:
             raise CaseError(key, list(groups), "name at least two cell groups that may touch")
         self.groups = names
         facets, facet_label = self._surface_facets(robot, key)
-        tags = dmesh.meshtags(domain, self.gdim - 1, facets, facet_label + 1)
-        ds = ufl.Measure(
-            "ds",
+        tags = dmesh.meshtags(domain, self.edim, facets, facet_label + 1)
+        measure = ufl.Measure(
+            "ds" if self.edim < domain.topology.dim else "dx",
             domain=domain,
             subdomain_data=tags,
             metadata={"quadrature_degree": quadrature_degree},
         )
-        self.measure = ds(tuple(range(1, len(names) + 1)))
+        self.measure = measure(tuple(range(1, len(names) + 1)))
         self._surface_vertices(facets, facet_label)
         self._surface_nodes(facets, facet_label)
         self.xbar = fem.Function(V, name="self_contact_point")
@@ -132,13 +133,42 @@ class SurfacePairing:
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
         self.engaged = False
-        F = ufl.Identity(self.gdim) + ufl.grad(self.u_geom)
-        cofactor = ufl.det(F) * ufl.inv(F).T
-        N = ufl.FacetNormal(domain)
         phi = ufl.TestFunction(self.Vc)
         self._normal_form = fem.form(
-            ufl.inner(cofactor * N, phi) * self.measure, jit_options=JIT_WAIT
+            ufl.inner(self._area_normal(), phi) * self.measure, jit_options=JIT_WAIT
         )
+        bs = V.dofmap.index_map_bs
+        self.number_rows(bs * int(V.dofmap.index_map.local_range[0]))  # V alone
+
+    @property
+    def edim(self) -> int:
+        """Dimension of the contact entities: the facets of the groups' cells."""
+        return int(self.domain.topology.dim) - 1
+
+    def _area_normal(self) -> Any:
+        """Outward normal times the area ratio da/dA of the surface at u_geom (UFL, Nanson)."""
+        F = ufl.Identity(self.gdim) + ufl.grad(self.u_geom)
+        return ufl.det(F) * ufl.inv(F).T * ufl.FacetNormal(self.domain)
+
+    def number_rows(self, first_row: int) -> None:
+        """Number the displacement dofs as the Newton system does (collective).
+
+        ``first_row``: global index, in the Newton system, of this rank's
+        first owned displacement dof. The displacement's owned dofs come first
+        on every rank (one unknown, or the first block of several unknowns
+        stacked per rank), so node k owned here has row first_row + bs k of
+        its first component; ghost nodes get their owner's row. Sets ``row``
+        (per local V node) and the rows of the gathered contact nodes.
+        """
+        V = self.V
+        bs = V.dofmap.index_map_bs
+        owned = V.dofmap.index_map.size_local * bs
+        numbering = fem.Function(V)
+        numbering.x.array[:owned] = first_row + np.arange(owned, dtype=np.float64)
+        numbering.x.scatter_forward()  # exact in float64 below 2**53 dofs
+        self.row = np.rint(numbering.x.array[::bs]).astype(np.int64)
+        """Per local V node: global row of its first component in the Newton system."""
+        self._gvrow = np.concatenate(self.comm.allgather(self.row[self._vown]))
 
     def _surface_facets(
         self, robot: RobotMesh, key: str
@@ -159,9 +189,17 @@ class SurfacePairing:
                 raise CaseError(key, name, "is not a cell group")
             cell_label[cells] = i
         self._num_cells = len(cell_label)
-        domain.topology.create_connectivity(tdim - 1, tdim)
-        exterior = dmesh.exterior_facet_indices(domain.topology)
-        f2c = domain.topology.connectivity(tdim - 1, tdim)
+        return self._label_entities(cell_label)
+
+    def _label_entities(
+        self, cell_label: npt.NDArray[np.int32]
+    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+        """The contact entities (exterior facets of labelled cells) and their group indices."""
+        topology = self.domain.topology
+        tdim = topology.dim
+        topology.create_connectivity(tdim - 1, tdim)
+        exterior = dmesh.exterior_facet_indices(topology)
+        f2c = topology.connectivity(tdim - 1, tdim)
         facet_label = np.array([cell_label[f2c.links(f)[0]] for f in exterior], dtype=np.int32)
         keep = facet_label >= 0
         facets, facet_label = exterior[keep].astype(np.int32), facet_label[keep]
@@ -173,7 +211,7 @@ class SurfacePairing:
     ) -> None:
         """Contact data at the vertices (P1 space Vc): groups, facets, facets around each."""
         domain, gdim = self.domain, self.gdim
-        tdim, fdim = domain.topology.dim, domain.topology.dim - 1
+        tdim, fdim = domain.topology.dim, self.edim
         self.Vc = Vc = fem.functionspace(domain, ("Lagrange", 1, (gdim,)))
         imap = Vc.dofmap.index_map
         n_nodes = imap.size_local + imap.num_ghosts
@@ -192,8 +230,9 @@ class SurfacePairing:
         domain.topology.create_connectivity(fdim, 0)
         f2v = domain.topology.connectivity(fdim, 0)
         self.facet_dofs = np.array([vertex_to_dof[f2v.links(f)] for f in facets], dtype=np.int32)
-        if self.facet_dofs.size == 0:
-            self.facet_dofs = self.facet_dofs.reshape(0, gdim)
+        if self.facet_dofs.size == 0:  # no contact entity on this rank
+            vertices = _cpp.mesh.cell_num_vertices(domain.topology.entity_types[fdim][0])
+            self.facet_dofs = self.facet_dofs.reshape(0, vertices)
         slot = np.zeros(n_nodes, dtype=np.int32)
         self.adjacent = np.full((n_nodes, ADJACENT), -1, dtype=np.int32)
         for f, dofs in enumerate(self.facet_dofs):
@@ -210,18 +249,30 @@ class SurfacePairing:
         self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
     ) -> None:
         """The displacement nodes of the surfaces (vertices and higher-order nodes of V)."""
-        domain, V, gdim = self.domain, self.V, self.gdim
-        tdim, fdim = domain.topology.dim, domain.topology.dim - 1
+        V, gdim = self.V, self.gdim
+        fdim = self.edim
         vmap = V.dofmap.index_map
-        self.v_global = vmap.local_to_global(
-            np.arange(vmap.size_local + vmap.num_ghosts, dtype=np.int32)
-        ).astype(np.int64)
         self.vlabel = np.full(vmap.size_local + vmap.num_ghosts, -1, dtype=np.int32)
         for i in range(len(self.groups)):
             vn = fem.locate_dofs_topological(V, fdim, facets[facet_label == i])
             self.vlabel[vn[self.vlabel[vn] < 0]] = i
         self.vnodes = np.flatnonzero(self.vlabel >= 0).astype(np.int32)
         self.vreference = V.tabulate_dof_coordinates()[:, :gdim].copy()
+        self.facet_vnodes = self._entity_nodes(facets)
+        self._normal_v = fem.Function(V)  # nodal normals and n̄, interpolated to the V nodes
+        self._nbar_v = fem.Function(V)
+        self.vpartner = np.full(self.vlabel.size, -1, dtype=np.int64)
+        self._lift = np.zeros((self.vlabel.size, gdim))  # offset × unit n̄ per node (m)
+        """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
+        # contact nodes owned here, in the order of every gather (search and coupling)
+        self._vown = self.vnodes[self.vnodes < vmap.size_local]
+        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
+        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
+
+    def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+        """The V nodes on each contact facet (closure dofs), (facets, nodes per facet)."""
+        domain, V = self.domain, self.V
+        tdim, fdim = domain.topology.dim, self.edim
         domain.topology.create_connectivity(tdim, fdim)
         c2f = domain.topology.connectivity(tdim, fdim)
         f2c = domain.topology.connectivity(fdim, tdim)
@@ -234,18 +285,16 @@ class SurfacePairing:
         for f in facets:
             c = f2c.links(f)[0]
             rows.append(V.dofmap.cell_dofs(c)[closure[int(np.flatnonzero(c2f.links(c) == f)[0])]])
-        self.facet_vnodes = np.array(rows, dtype=np.int32).reshape(len(facets), -1)
-        self._normal_v = fem.Function(V)  # nodal normals and n̄, interpolated to the V nodes
-        self._nbar_v = fem.Function(V)
-        self.vpartner = np.full(self.vlabel.size, -1, dtype=np.int64)
-        """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
-        # contact nodes owned here, in the order of every gather (search and coupling)
-        self._vown = self.vnodes[self.vnodes < vmap.size_local]
-        self._gvglobal = np.concatenate(self.comm.allgather(self.v_global[self._vown]))
-        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
-        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
+        return np.array(rows, dtype=np.int32).reshape(len(facets), -1)
 
     # --- the law at a point (UFL) ------------------------------------------------------------
+
+    offset = 0.0
+    """Distance (m) between the points x of two surfaces that just touch (0: faces); x̄ is the
+    master's point lifted by it along n̄ (towards the slave)."""
+
+    two_sided = False
+    """Surfaces without an outside (a shell's mid-surface): n̄ points at the slave's side."""
 
     def gap_expression(self, x: Any) -> Any:
         """Normal gap g = (x − x̄)·n̄ (m) of the slave point at current position x (UFL)."""
@@ -280,7 +329,14 @@ class SurfacePairing:
         self._normal_c.x.array.reshape(-1, gdim)[nodes] = n
         self._normal_c.x.scatter_forward()
         label = self.node_label[nodes]
-        normals, corners = self._facet_normals(n)
+        full = np.zeros_like(self.reference)
+        full[nodes] = n
+        normals, corners = facet_normals(
+            self.reference + self.vertex_displacement.x.array.reshape(-1, gdim),
+            self.facet_dofs,
+            full,
+            self.adjacent,
+        )
         adjacent = normals[nodes]  # (nodes, ADJACENT, gdim)
         around_corners = corners[nodes]  # (nodes, ADJACENT, facet vertices, gdim)
         owned = nodes < self.size_local
@@ -305,19 +361,14 @@ class SurfacePairing:
             dist, idx = dist.reshape(slaves.size, k), idx.reshape(slaves.size, k)
             # every facet around each candidate: facing, gap to its plane, projection inside it
             around = mn[idx]  # (slaves, k, ADJACENT, gdim)
-            dots = np.einsum("sa,skja->skj", n[slaves], around)
-            dots[np.all(around == 0.0, axis=-1)] = np.inf
             d = x[slaves][:, None, :] - mx[idx]
-            g = np.einsum("ska,skja->skj", d, around)
-            foot = x[slaves][:, None, None, :] - g[..., None] * around
-            far_in_reference = (
-                np.linalg.norm(ref[slaves][:, None, :] - mref[idx], axis=-1) >= law.exclusion
-            )
+            dots, g, around = facing(n[slaves], d, around, self.offset, self.two_sided)
+            foot = x[slaves][:, None, None, :] - (g + self.offset)[..., None] * around
             ok = (
                 (dots < FACING)
                 & (g > -law.band)
-                & far_in_reference[..., None]
-                & _inside(foot, mc[idx], INSIDE)
+                & self._far_in_reference(ref[slaves], mref[idx], np.flatnonzero(in_j)[idx], j)
+                & inside(foot, mc[idx], INSIDE)
             )
             # per candidate, of its valid facets the one that most opposes the slave's normal
             choice = np.argmin(np.where(ok, dots, np.inf), axis=-1)
@@ -339,6 +390,28 @@ class SurfacePairing:
         self.gap[nodes] = gap
         self._pair_nodes()
         self.place(self.u_geom.x.array)
+
+    def _far_in_reference(
+        self,
+        ref: npt.NDArray[np.float64],
+        candidate_ref: npt.NDArray[np.float64],
+        candidates: npt.NDArray[np.int64],
+        group: int,
+    ) -> npt.NDArray[np.bool_]:
+        """Whether slave points may touch the facets around candidate master vertices.
+
+        Args:
+            ref: (slaves, gdim) the slaves' reference positions (m).
+            candidate_ref: (slaves, k, gdim) the candidates' reference positions (m).
+            candidates: (slaves, k) the candidates' indices in the gathered vertices.
+            group: the master group.
+
+        Returns:
+            (slaves, k, ADJACENT): the candidate lies at least the exclusion
+            distance from the slave in the reference configuration.
+        """
+        far = np.linalg.norm(ref[:, None, :] - candidate_ref, axis=-1) >= self.law.exclusion
+        return np.repeat(far[..., None], ADJACENT, axis=-1)
 
     def _pair_nodes(self) -> None:
         """Pair every displacement node of the contact surfaces with a master node (collective).
@@ -372,6 +445,8 @@ class SurfacePairing:
                 np.repeat(fgroup, self.facet_vnodes.shape[1]),
             )
         self.vpartner[:] = -1
+        unit = np.linalg.norm(nbar, axis=1)
+        self._lift = self.offset * nbar / np.where(unit > 0, unit, 1.0)[:, None]
         here = self.vreference + disp
         for j in range(len(self.groups)):
             slaves = np.flatnonzero(group == j)
@@ -381,10 +456,10 @@ class SurfacePairing:
             k = min(CANDIDATES, in_j.size)
             _, idx = cKDTree(position[in_j]).query(here[slaves], k=k)
             idx = in_j[idx.reshape(slaves.size, k)]
-            facing = (
-                np.einsum("ska,sa->sk", mnormal[idx], nbar[slaves])
-                > -FACING * np.maximum(np.linalg.norm(nbar[slaves], axis=1), 1e-300)[:, None]
-            )
+            dots = np.einsum("ska,sa->sk", mnormal[idx], nbar[slaves])
+            facing = (np.abs(dots) if self.two_sided else dots) > -FACING * np.maximum(
+                np.linalg.norm(nbar[slaves], axis=1), 1e-300
+            )[:, None]
             has = facing.any(axis=1)
             first = np.argmax(facing, axis=1)
             self.vpartner[slaves[has]] = idx[np.arange(slaves.size), first][has]
@@ -393,9 +468,10 @@ class SurfacePairing:
     def place(self, displacement: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
         """Move x̄ to the master nodes at ``displacement`` (local V array, m) (collective).
 
-        Returns, per local V node, the global V node whose position x̄ there
-        is: its master node, or the node itself where it has none (there
-        n̄ = 0 or the node lies at the rim of the contact zone).
+        Returns, per local V node, the Newton row (:meth:`number_rows`) of the
+        first component of the node whose position x̄ there is: its master
+        node, or the node itself where it has none (there n̄ = 0 or the node
+        lies at the rim of the contact zone).
         """
         gdim = self.gdim
         disp = displacement.reshape(-1, gdim)
@@ -403,83 +479,6 @@ class SurfacePairing:
         k = self.vpartner
         paired = k >= 0
         xbar = self.vreference + disp
-        xbar[paired] = position[k[paired]]
+        xbar[paired] = position[k[paired]] + self._lift[paired]
         self.xbar.x.array[:] = xbar.ravel()
-        return np.where(paired, self._gvglobal[np.maximum(k, 0)], self.v_global)
-
-    def _facet_normals(
-        self, nodal: npt.NDArray[np.float64]
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Unit outward normals and corners of the contact facets around each vertex.
-
-        A facet's normal is the direction of least spread of its current
-        vertices (SVD; exact for segments and flat facets, the best-fit plane
-        of a warped quadrilateral), oriented along the sum of its vertices'
-        area-weighted nodal normals ``nodal`` (contact vertices, (nodes, gdim)).
-
-        Returns:
-            normals (n_nodes, ADJACENT, gdim) and the facets' current vertex
-            positions (n_nodes, ADJACENT, facet vertices, gdim) (m); zero
-            rows pad vertices with fewer facets.
-        """
-        gdim = self.gdim
-        nvf = self.facet_dofs.shape[1]
-        out = np.zeros((self.node_label.size, ADJACENT, gdim))
-        corners = np.zeros((self.node_label.size, ADJACENT, nvf, gdim))
-        if self.facet_dofs.shape[0] == 0:
-            return out, corners
-        x = self.reference + self.vertex_displacement.x.array.reshape(-1, gdim)
-        pts = x[self.facet_dofs]  # (facets, vertices, gdim)
-        _, _, vt = np.linalg.svd(pts - pts.mean(axis=1, keepdims=True))
-        normal = vt[:, -1, :]
-        full = np.zeros_like(x)
-        full[self.nodes] = nodal
-        orient = full[self.facet_dofs].sum(axis=1)
-        normal *= np.where(np.einsum("fa,fa->f", normal, orient) < 0, -1.0, 1.0)[:, None]
-        has = self.adjacent >= 0
-        out[has] = normal[self.adjacent[has]]
-        corners[has] = pts[self.adjacent[has]]
-        return out, corners
-
-
-def _inside(
-    point: npt.NDArray[np.float64], corners: npt.NDArray[np.float64], tolerance: float
-) -> npt.NDArray[np.bool_]:
-    """Whether points lie in the convex hull of facet corners, up to ``tolerance``.
-
-    Args:
-        point: (..., gdim) points on the facets' planes (m).
-        corners: (..., vertices, gdim) facet corners (m): 2 (segment), 3
-            (triangle) or 4 (quadrilateral, any vertex order: the union of the
-            four corner triangles is its hull).
-        tolerance: slack in barycentric coordinates.
-
-    Padding facets (all corners equal) contain no point.
-    """
-    nv = corners.shape[-2]
-    if nv == 2:
-        a, b = corners[..., 0, :], corners[..., 1, :]
-        e = b - a
-        ee = np.einsum("...a,...a->...", e, e)
-        t = np.einsum("...a,...a->...", point - a, e) / np.where(ee > 0, ee, np.inf)
-        return (ee > 0) & (t >= -tolerance) & (t <= 1.0 + tolerance)
-    inside = np.zeros(point.shape[:-1], dtype=bool)
-    for tri in itertools.combinations(range(nv), 3):
-        a, b, c = (corners[..., i, :] for i in tri)
-        v0, v1, v2 = b - a, c - a, point - a
-        d00 = np.einsum("...a,...a->...", v0, v0)
-        d01 = np.einsum("...a,...a->...", v0, v1)
-        d11 = np.einsum("...a,...a->...", v1, v1)
-        d20 = np.einsum("...a,...a->...", v2, v0)
-        d21 = np.einsum("...a,...a->...", v2, v1)
-        det = d00 * d11 - d01 * d01
-        safe = np.where(det > 1e-12 * (d00 * d11), det, np.inf)
-        beta = (d11 * d20 - d01 * d21) / safe
-        gamma = (d00 * d21 - d01 * d20) / safe
-        inside |= (
-            np.isfinite(safe)
-            & (beta >= -tolerance)
-            & (gamma >= -tolerance)
-            & (1.0 - beta - gamma >= -tolerance)
-        )
-    return inside
+        return np.where(paired, self._gvrow[np.maximum(k, 0)], self.row)

@@ -1,0 +1,131 @@
+"""Geometry of the self-contact search: facet normals, facing and point-in-facet tests.
+
+Pure array functions of the current positions (m) used by
+:class:`~magfem.mechanics.contacts.self_contact.search.SurfacePairing`.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import numpy.typing as npt
+
+from magfem.mechanics.contacts.self_contact.law import ADJACENT
+
+__all__ = ["facet_normals", "facing", "inside"]
+
+
+def facet_normals(
+    x: npt.NDArray[np.float64],
+    facet_vertices: npt.NDArray[np.int32],
+    nodal: npt.NDArray[np.float64],
+    adjacent: npt.NDArray[np.int32],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Unit normals and corners of the contact facets around each vertex.
+
+    A facet's normal is the direction of least spread of its current
+    vertices (SVD; exact for segments and flat facets, the best-fit plane
+    of a warped quadrilateral), oriented along the sum of its vertices'
+    area-weighted nodal normals.
+
+    Args:
+        x: (vertices, gdim) current vertex positions (m).
+        facet_vertices: (facets, vertices per facet) vertex indices.
+        nodal: (vertices, gdim) nodal normals (zero off the contact surfaces).
+        adjacent: (vertices, ADJACENT) facets around each vertex (-1: none).
+
+    Returns:
+        normals (vertices, ADJACENT, gdim) and the facets' current corner
+        positions (vertices, ADJACENT, vertices per facet, gdim) (m); zero
+        rows pad vertices with fewer facets.
+    """
+    gdim = x.shape[1]
+    out = np.zeros((len(x), ADJACENT, gdim))
+    corners = np.zeros((len(x), ADJACENT, facet_vertices.shape[1], gdim))
+    if facet_vertices.shape[0] == 0:
+        return out, corners
+    pts = x[facet_vertices]  # (facets, vertices, gdim)
+    _, _, vt = np.linalg.svd(pts - pts.mean(axis=1, keepdims=True))
+    normal = vt[:, -1, :]
+    orient = nodal[facet_vertices].sum(axis=1)
+    normal *= np.where(np.einsum("fa,fa->f", normal, orient) < 0, -1.0, 1.0)[:, None]
+    has = adjacent >= 0
+    out[has] = normal[adjacent[has]]
+    corners[has] = pts[adjacent[has]]
+    return out, corners
+
+
+def facing(
+    normal: npt.NDArray[np.float64],
+    d: npt.NDArray[np.float64],
+    around: npt.NDArray[np.float64],
+    offset: float,
+    two_sided: bool,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Facing, gap and master normal of slave points towards candidate master facets.
+
+    Args:
+        normal: (slaves, gdim) the slaves' unit normals.
+        d: (slaves, k, gdim) slave minus candidate master vertex (m).
+        around: (slaves, k, ADJACENT, gdim) unit normals of the facets around
+            each candidate (zero rows: padding).
+        offset: distance (m) at which the points touch (0: faces; h: mid-surfaces).
+        two_sided: the facets have no outside (mid-surfaces): n̄ is turned towards
+            the slave's side, and a slave normal of either sign faces it.
+
+    Returns:
+        n_s·n̄ (+inf for padding; < FACING for facing surfaces), the gap
+        d·n̄ − offset to each facet's plane (m) and n̄ per facet, the same shapes.
+    """
+    dots = np.einsum("sa,skja->skj", normal, around)
+    if two_sided:
+        side = np.where(np.einsum("ska,skja->skj", d, around) < 0.0, -1.0, 1.0)
+        around = side[..., None] * around
+        dots = -np.abs(dots)
+    dots[np.all(around == 0.0, axis=-1)] = np.inf
+    g = np.einsum("ska,skja->skj", d, around) - offset
+    return dots, g, around
+
+
+def inside(
+    point: npt.NDArray[np.float64], corners: npt.NDArray[np.float64], tolerance: float
+) -> npt.NDArray[np.bool_]:
+    """Whether points lie in the convex hull of facet corners, up to ``tolerance``.
+
+    Args:
+        point: (..., gdim) points on the facets' planes (m).
+        corners: (..., vertices, gdim) facet corners (m): 2 (segment), 3
+            (triangle) or 4 (quadrilateral, any vertex order: the union of the
+            four corner triangles is its hull).
+        tolerance: slack in barycentric coordinates.
+
+    Padding facets (all corners equal) contain no point.
+    """
+    nv = corners.shape[-2]
+    if nv == 2:
+        a, b = corners[..., 0, :], corners[..., 1, :]
+        e = b - a
+        ee = np.einsum("...a,...a->...", e, e)
+        t = np.einsum("...a,...a->...", point - a, e) / np.where(ee > 0, ee, np.inf)
+        return (ee > 0) & (t >= -tolerance) & (t <= 1.0 + tolerance)
+    inside = np.zeros(point.shape[:-1], dtype=bool)
+    for tri in itertools.combinations(range(nv), 3):
+        a, b, c = (corners[..., i, :] for i in tri)
+        v0, v1, v2 = b - a, c - a, point - a
+        d00 = np.einsum("...a,...a->...", v0, v0)
+        d01 = np.einsum("...a,...a->...", v0, v1)
+        d11 = np.einsum("...a,...a->...", v1, v1)
+        d20 = np.einsum("...a,...a->...", v2, v0)
+        d21 = np.einsum("...a,...a->...", v2, v1)
+        det = d00 * d11 - d01 * d01
+        safe = np.where(det > 1e-12 * (d00 * d11), det, np.inf)
+        beta = (d11 * d20 - d01 * d21) / safe
+        gamma = (d00 * d21 - d01 * d20) / safe
+        inside |= (
+            np.isfinite(safe)
+            & (beta >= -tolerance)
+            & (gamma >= -tolerance)
+            & (1.0 - beta - gamma >= -tolerance)
+        )
+    return inside

@@ -1,0 +1,142 @@
+r"""Self-contact search on a shell: mid-surfaces of thickness h that touch face on face.
+
+The shell (``[mesh] model = "surface"``) is its mid-surface: a group's
+contact surface is its cells, and both faces of the membrane, at ±h/2 along
+the normal, may touch. For a slave point x (current mid-surface position)
+paired with the master's mid-surface point x̄, master normal n̄ oriented
+towards the slave's side (the side the slave lies on when the pairing is
+searched, at the start of each step), the gap is
+
+.. math::
+
+    g = (\mathbf x - \bar{\mathbf x})\cdot\bar{\mathbf n} - h ,
+
+the distance between the slave's face and the master's face that look at
+each other. It is evaluated as (x − x̄')·n̄ with x̄' the master's node lifted
+by h along the unit n̄ at that node (:meth:`SurfacePairing.place`), so a
+node without a master (x̄' = x) has no gap, wherever n̄ is interpolated from
+paired and unpaired vertices. The rest (two-pass penalty, search, coupled Newton terms) is the
+solids' (:mod:`.law`, :mod:`.search`, :mod:`.assembly`), with the
+mid-surface normals n ∝ ∂φ/∂X₁ × ∂φ/∂X₂ and facing taken up to sign.
+
+Approximation: the faces are offset along the mid-surface normal, not the
+director d of the shell's kinematics, so the gap depends on the displacement
+only (the angles are not coupled). The director differs from the normal by
+the transverse shear angle γ (a few 1e-3 rad in bending, (t/L)² small), which
+tilts the face point by h/2·γ along the surface and moves it along the
+normal by O(h γ²); for two plates facing each other the gap is exact to
+O(rotation²) in the angle between d and n. A point whose mid-surface has
+crossed the master's (penetration beyond h) is paired with the other face
+at the next search: the penalty is a tolerance of a fraction of h, not a
+barrier. A group never contacts itself (a membrane folding onto itself).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+from dolfinx import fem
+
+from magfem.geometry.robot_mesh import RobotMesh
+from magfem.mechanics.contacts.self_contact.law import SelfContactLaw
+from magfem.mechanics.contacts.self_contact.search import SurfacePairing
+
+__all__ = ["ShellPairing"]
+
+
+class ShellPairing(SurfacePairing):
+    """:class:`SurfacePairing` of mid-surface cell groups of thickness h (collective).
+
+    Args: those of :class:`SurfacePairing`; ``V`` is the shell's displacement
+    space; the law's band becomes h (any slave point on its own side of the
+    master's mid-surface may touch).
+    """
+
+    two_sided = True
+
+    def __init__(
+        self,
+        robot: RobotMesh,
+        V: fem.FunctionSpace,
+        groups: Sequence[str],
+        law: SelfContactLaw,
+        *,
+        quadrature_degree: int,
+        key: str = "contact.self_contact_groups",
+    ) -> None:
+        self.offset = robot.thickness
+        super().__init__(
+            robot,
+            V,
+            groups,
+            dataclasses.replace(law, band=robot.thickness),
+            quadrature_degree=quadrature_degree,
+            key=key,
+        )
+        # per owned contact vertex, gathered in the search's order: the group and the
+        # reference corners of the cells around it
+        owned = self.nodes[self.nodes < self.size_local]
+        adjacent = self.adjacent[owned]
+        has = adjacent >= 0
+        label = np.full(adjacent.shape, -1, dtype=np.int32)
+        label[has] = self._cell_label[adjacent[has]]
+        corners = np.zeros((*adjacent.shape, self.facet_dofs.shape[1], 3))
+        corners[has] = self.reference[self.facet_dofs[adjacent[has]]]
+        parts = self.comm.allgather((label, corners))
+        self._gadjacent_label = np.concatenate([p[0] for p in parts])
+        self._gadjacent_corners = np.concatenate([p[1] for p in parts])
+
+    @property
+    def edim(self) -> int:
+        """The contact entities are the groups' cells (the mid-surface)."""
+        return int(self.domain.topology.dim)
+
+    def _label_entities(
+        self, cell_label: npt.NDArray[np.int32]
+    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+        """The labelled cells (local, owned and ghost) and their group indices."""
+        cells = np.flatnonzero(cell_label >= 0).astype(np.int32)
+        return cells, cell_label[cells]
+
+    def _surface_vertices(
+        self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
+    ) -> None:
+        super()._surface_vertices(facets, facet_label)
+        self._cell_label = facet_label
+
+    def _far_in_reference(
+        self,
+        ref: npt.NDArray[np.float64],
+        candidate_ref: npt.NDArray[np.float64],
+        candidates: npt.NDArray[np.int64],
+        group: int,
+    ) -> npt.NDArray[np.bool_]:
+        """Cells of the master group none of whose corners lies within the exclusion distance
+        of the slave in the reference configuration.
+
+        Where two groups meet along an edge (a fin on the body), a slave point on
+        that edge lies in the plane of the other group's cells there (g = −h):
+        the candidate vertex is a cell's length away, but the cell itself
+        touches the slave, so the distance is taken to every corner of the cell.
+        A cell around a shared vertex may belong to the slave's own group: only
+        the master group's cells count.
+        """
+        label = self._gadjacent_label[candidates]  # (slaves, k, ADJACENT)
+        corners = self._gadjacent_corners[candidates]  # (slaves, k, ADJACENT, corners, 3)
+        distance = np.linalg.norm(corners - ref[:, None, None, None, :], axis=-1).min(axis=-1)
+        return (label == group) & (distance >= self.law.exclusion)
+
+    def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+        """The V nodes of each contact cell, (cells, nodes per cell)."""
+        dofs = self.V.dofmap.list
+        return np.asarray(dofs[facets], dtype=np.int32).reshape(len(facets), dofs.shape[1])
+
+    def _area_normal(self) -> Any:
+        """∂φ/∂X₁ × ∂φ/∂X₂ at u_geom: normal times da/dA of the flat (xy) mid-surface (UFL)."""
+        F = ufl.Identity(3) + ufl.grad(self.u_geom)
+        return ufl.cross(F[:, 0], F[:, 1])
