@@ -394,9 +394,8 @@ class ObstacleAbsorber:
         imap = V.dofmap.index_map
         self._owned = imap.size_local
         self._global = imap.local_to_global(np.arange(imap.size_local + imap.num_ghosts))
-        self.touching = np.zeros(
-            self._global.size, dtype=bool
-        )  # local nodes inside at the last call
+        # the local nodes (owned and ghost) that were inside at the last call
+        self.touching = np.zeros(self._global.size, dtype=bool)
 
     def apply(self, v: Any, a: Any) -> int:
         """Remove the outward normal velocity/acceleration of nodes that hit the obstacle.
