@@ -71,6 +71,11 @@ class Study:
         doc="summary scalars whose difference between the last and the first run is stated "
         "under the table",
     )
+    figure: tuple[str, ...] = option(
+        (),
+        doc="history columns plotted against time, one panel each and a line per run (default: "
+        "the sweep plot, or the single run's angle history)",
+    )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(
         "", doc="why the study may not have run yet (its cost), shown while it has not"

@@ -140,3 +140,34 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     # a full report (no ``only``) rebuilds every scene from ``out``
     full = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
     assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
+
+
+def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypatch):
+    """``figure = [...]``: the scene's figure is those history columns against time, one
+    line per finished run; a column no run has is left out, and with none left there is no
+    figure."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    text = (
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+        'params = ["time.end=10ms,20ms"]\nfigure = ["com_x", "no_such_column"]\n'
+    )
+    (folder / "probe.toml").write_text(text, encoding="utf-8")
+    study = load_studies(folder)[0]
+    fprint = fingerprint(Path(study.case), study.sets)
+    for pt in build_points([parse_param(p) for p in study.params], fprint):
+        point = tmp_path / "out" / "probe" / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+        (point / "history.csv").write_text("time [s],com_x [m]\n0,0\n0.01,0.002\n")
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    figure = tmp_path / "docs" / "figures" / "scenes_probe.png"
+    assert "![probe](figures/scenes_probe.png)" in page
+    assert figure.is_file() and figure.stat().st_size > 1000
+    (folder / "probe.toml").write_text(text.replace('"com_x", ', ""), encoding="utf-8")
+    figure.unlink()
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    assert "![probe]" not in page and not figure.exists()

@@ -19,6 +19,7 @@ GOOD = {
     "sets": ["mesh.size=0.5mm"],
     "columns": ["max_angle_arm"],
     "compare": ["max_angle_arm"],
+    "figure": ["com_x"],
     "notes": "a note",
     "pending": "why not yet",
     "unresolved": "why not a prediction",
