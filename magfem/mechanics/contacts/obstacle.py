@@ -245,18 +245,17 @@ class Obstacle(Contact):
         faces = model.faces(*model.accepted(), self.surfaces, nodal=self.nodal)
         total = functools.reduce(operator.add, [self.traction(f) for f in faces])
         self._forces = ScalarForms(mesh, [total[i] * faces[0].measure for i in range(gdim)])
+        # (g, n, w) at the displacement's nodes of each face: the gap and the impact absorber
         nodes = model.u.function_space.element.interpolation_points
-        self._gaps = [
-            fem.Expression(self.surface(f.position)[0], nodes, jit_options=JIT_WAIT) for f in faces
+        self._at_nodes = [
+            fem.Expression(ufl.as_vector([g, *n, *w]), nodes, jit_options=JIT_WAIT)
+            for g, n, w in (self.surface(f.position) for f in faces)
         ]
         tdim = mesh.topology.dim
         self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
         self.absorber: ObstacleAbsorber | None = None
         if model.integrator.dynamic and self.absorbs_impacts:
-            contact = [
-                ufl.as_vector([g, *n, *w]) for g, n, w in (self.surface(f.position) for f in faces)
-            ]
-            self.absorber = ObstacleAbsorber(model.u.function_space, contact)
+            self.absorber = ObstacleAbsorber(model.u.function_space, self._at_nodes)
 
     def distance(self, x: Any, offset: Any) -> tuple[Any, Any]:
         """(g, n) of the shape in its table's placement translated by ``offset`` (UFL)."""
@@ -342,7 +341,11 @@ class Obstacle(Contact):
         mesh = self.model.robot.mesh
         local = np.inf
         if self._cells.size:
-            local = min(float(np.min(e.eval(mesh, self._cells))) for e in self._gaps)
+            width = 1 + 2 * self.gdim  # g, n, w
+            local = min(
+                float(np.min(e.eval(mesh, self._cells).reshape(-1, width)[:, 0]))
+                for e in self._at_nodes
+            )
         return float(mesh.comm.allreduce(local, op=MPI.MIN))
 
     def observe(self, t: float) -> dict[str, float]:
@@ -373,21 +376,20 @@ class ObstacleAbsorber:
 
     Args:
         V: the displacement space (blocked vector Lagrange, gdim components).
-        contact: per face, the UFL vector (g, n, w) at the face's points of the
-            accepted state: signed distance (m), the obstacle's outward unit
-            normal and its surface velocity (m/s), evaluated at V's nodes.
+        at_nodes: per face, the Expression of the vector (g, n, w) at V's nodes,
+            for the face's points of the accepted state: signed distance (m), the
+            obstacle's outward unit normal and its surface velocity (m/s).
         rest_velocity: the bounce threshold (m/s) of nodes already inside.
 
     :meth:`apply` is collective.
     """
 
-    def __init__(self, V: Any, contact: Sequence[Any], *, rest_velocity: float = 1e-3) -> None:
+    def __init__(self, V: Any, at_nodes: Sequence[Any], *, rest_velocity: float = 1e-3) -> None:
         mesh = V.mesh
         self.mesh = mesh
         self.bs = V.dofmap.index_map_bs
         self.rest_velocity = float(rest_velocity)
-        nodes = V.element.interpolation_points
-        self._contact = [fem.Expression(c, nodes, jit_options=JIT_WAIT) for c in contact]
+        self._contact = list(at_nodes)
         tdim = mesh.topology.dim
         self._cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
         self._dofs = np.asarray(V.dofmap.list)[self._cells]  # (cells, nodes per cell)
