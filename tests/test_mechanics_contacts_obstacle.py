@@ -22,7 +22,7 @@ from mpi4py import MPI
 from magfem.case import parse_case
 from magfem.config import CaseError, from_table
 from magfem.field.placement import frame, rotation
-from magfem.mechanics.contacts.obstacle import ObstacleSpec, signed_distance
+from magfem.mechanics.contacts.obstacle import Obstacle, ObstacleSpec, signed_distance
 from magfem.mechanics.contacts.penalty import penalty_penetration
 from magfem.pipeline import build_simulation
 from verification import references as ref
@@ -435,8 +435,6 @@ def test_impact_on_an_obstacle_is_inelastic(comm, monkeypatch):
     weight = 2130 * 9.8 * 1e-4 * 4e-6
     force = n[0] * h["obstacle_slope_x"] + n[2] * h["obstacle_slope_z"]
     assert force[-1] == pytest.approx(weight, rel=0.05)
-    from magfem.mechanics.contacts.obstacle import Obstacle
-
     monkeypatch.setattr(Obstacle, "absorbs_impacts", False)
     bouncing, _ = _tilted_drop(comm)
     rebound = n[0] * bouncing["com_vx"] + n[2] * bouncing["com_vz"]
