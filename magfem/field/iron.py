@@ -276,6 +276,15 @@ def _solve_nonlinear(P: _Problem, u: Any, g: Any, Bs: Any, name: str) -> int:
     problem.solve()
     snes: Any = problem.solver
     reason, its = int(snes.getConvergedReason()), int(snes.getIterationNumber())
+    if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+        # CG stops when GAMG's smoother is not positive on a strongly saturated Jacobian
+        # (differential µr from ~1 to ~10⁴ side by side): GMRES from the last iterate
+        ksp = snes.getKSP()
+        ksp.setType("gmres")
+        ksp.setGMRESRestart(200)
+        problem.solve()
+        reason = int(snes.getConvergedReason())
+        its += int(snes.getIterationNumber())
     if reason <= 0:
         raise RuntimeError(
             f"{name}: nonlinear iron solve failed (SNES reason {reason} after {its} iterations); "
