@@ -88,8 +88,11 @@ def test_table_of_a_linear_law_gives_the_linear_sphere(comm):
     solve = from_table(SolveSpec, {}, "solve")  # (r, z), P3, as the linear sphere's test
     (reaction,) = solve_iron([part], [UniformField(B0)], solve, comm)
     err = _errors(reaction, *_linear_reference(1000.0))
-    # the linear test's bounds: the table is exact for a linear law below 20 A/m
+    # the linear test's bounds; measured the linear solve's own errors (interior 1.4e-7,
+    # B 1.6e-4, moment 9.5e-8): the table is exact for a linear law below 20 A/m
     assert err["interior"] < 5e-7
     assert err["B"] < 5e-4
     assert err["moment"] < 3e-7
-    assert 1 <= reaction.info["newton_iterations"] <= 8
+    # the law is linear where the iron is, so Newton with the exact Jacobian of the UFL
+    # table converges in one step from any start (a wrong derivative would take more)
+    assert reaction.info["newton_iterations"] == 1

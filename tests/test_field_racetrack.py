@@ -94,6 +94,9 @@ def test_case_table_places_and_turns_the_racetrack():
     Q = frame(np.array([1.0, 0.0, 0.0]), math.radians(30))
     side = c + np.array([[0.0875, 0.0, 0.0], [0.07, 0.0, 0.0], [0.0, 0.05, 0.0]]) @ Q.T
     assert term.field.inside(side).tolist() == [True, False, False]
+    # closer than the quadrature's resolution (78.5 mm / 1024 = 0.077 mm): flagged
+    near = c + np.array([[0.10005, 0.0, 0.0], [0.101, 0.0, 0.0]]) @ Q.T
+    assert term.field.unresolved(near).tolist() == [True, False]
 
 
 @pytest.mark.parametrize(

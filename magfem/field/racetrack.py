@@ -58,14 +58,15 @@ def racetrack_distance(
     return np.hypot(dr, dz)
 
 
-def _scale(cx: float, cy: float, r1: float, r2: float) -> float:
+def _scale(r1: float, r2: float) -> float:
     """Longest quadrature direction (m): the winding's depth or a corner's outer arc."""
     return max(r2 - r1, 0.5 * math.pi * r2)
 
 
-def racetrack_resolution(cx: float, cy: float, r1: float, r2: float) -> float:
-    """Smallest distance (m) to the winding at which :func:`racetrack_local` is converged."""
-    return _scale(cx, cy, r1, r2) / 2 ** (_MAX_LEVEL + 1)
+def racetrack_resolution(r1: float, r2: float) -> float:
+    """Smallest distance (m) to a winding of offsets r1 < r2 (m) at which
+    :func:`racetrack_local` is converged."""
+    return _scale(r1, r2) / 2 ** (_MAX_LEVEL + 1)
 
 
 def _strip(rho: np.ndarray, Z: np.ndarray, h: float) -> tuple[np.ndarray, ...]:
@@ -194,7 +195,7 @@ def racetrack_local(
     """
     p = np.atleast_2d(np.asarray(p, dtype=float))
     J = ampere_turns / ((r2 - r1) * height)
-    scale = _scale(cx, cy, r1, r2)
+    scale = _scale(r1, r2)
     d = racetrack_distance(cx, cy, r1, r2, height, p)
     need = np.clip(np.ceil(scale / np.maximum(2 * d, 1e-300)), 1, 2**_MAX_LEVEL)
     need[d <= 0.0] = 1

@@ -222,7 +222,7 @@ class RacetrackCoilField(_Placed):
 
     def unresolved(self, points: np.ndarray) -> np.ndarray:
         d = rt.racetrack_distance(*self._args(), self._local(points))
-        return d < rt.racetrack_resolution(self.cx, self.cy, self.r1, self.r2)
+        return d < rt.racetrack_resolution(self.r1, self.r2)
 
 
 class CylinderMagnetField(_Placed):
