@@ -13,7 +13,9 @@ Beyond the last point the curve is continued by the straight line of slope
 1 (dB/dH = µ0: the polarisation has saturated); the last point's slope is
 set to 1 (clipped to 3 δ_{n−1}, Fritsch–Carlson's monotonicity bound), so
 the continuation is C¹ where the table's last secant is at least 1/3.
-The isotropic law is then B = F(|b|) b/|b|.
+The isotropic law is then B = F(|b|) b/|b|. In UFL the knots are one
+``fem.Constant`` of shape (3, n + 1), so a compiled form depends on the number
+of table points only (a second table of that length costs no compilation).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from typing import Any
 
 import numpy as np
 import ufl
+from dolfinx import fem
 
 from magfem.config import CaseError
 from magfem.field.analytic import MU0
@@ -72,11 +75,25 @@ class BHCurve:
         beyond = nb > self.b[-1]
         return np.where(beyond, self.B[-1] + (nb - self.b[-1]), out)
 
-    def ufl(self, nb: Any) -> Any:
-        """|B| (UFL) at the UFL scalar ``nb`` = |b|: nested conditionals over the intervals."""
-        b, B, m = (list(map(float, v)) for v in (self.b, self.B, self.m))
+    @property
+    def knots(self) -> np.ndarray:
+        """(3, n + 1): the rows b_k, B_k, m_k (the values of :meth:`constant`)."""
+        return np.stack([self.b, self.B, self.m])
+
+    def constant(self, msh: Any) -> Any:
+        """The knots as a ``fem.Constant`` on ``msh`` (the argument of :meth:`ufl`)."""
+        return fem.Constant(msh, self.knots)
+
+    def ufl(self, nb: Any, knots: Any) -> Any:
+        """|B| (UFL) at the UFL scalar ``nb`` = |b|: nested conditionals over the intervals.
+
+        ``knots`` is :meth:`constant` (or any UFL (3, n + 1) tensor): the compiled form
+        depends on the number of points only, not on their values.
+        """
+        n = len(self.b)
+        b, B, m = ([knots[i, k] for k in range(n)] for i in range(3))
         expr = B[-1] + (nb - b[-1])
-        for k in range(len(b) - 2, -1, -1):
+        for k in range(n - 2, -1, -1):
             piece = _hermite(b[k], b[k + 1], B[k], B[k + 1], m[k], m[k + 1], nb)
             expr = ufl.conditional(ufl.lt(nb, b[k + 1]), piece, expr)
         return expr

@@ -123,6 +123,7 @@ class _Problem:
         self.linear = all(p.linear for p in parts)
         curves = [(p.bh_curve(), tag) for p, tag in zip(parts, self.tags, strict=True)]
         self.curve = next((c for c, _ in curves if c is not None), None)
+        self.knots = None if self.curve is None else self.curve.constant(self.msh)
         self.tab = fem.Function(Q)  # 1 on the cells of the tabulated curve
         for c, tag in curves:
             if c is not None:
@@ -163,7 +164,7 @@ class _Problem:
         law = b * (1.0 + 2.0 * self.js / math.pi * ufl.atan(a * nb) / nb)
         if self.curve is None:
             return law
-        return self.tab * b * self.curve.ufl(nb) / nb + (1.0 - self.tab) * law
+        return self.tab * b * self.curve.ufl(nb, self.knots) / nb + (1.0 - self.tab) * law
 
     def source(self, load: SourceField) -> Any:
         """B_s of ``load`` interpolated on the iron cells (vector Lagrange, gdim components)."""
