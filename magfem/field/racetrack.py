@@ -155,23 +155,27 @@ def _bar_field(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Σ over the four bars and the offsets s of ws t × E_sheet, and its gradient."""
     B, G = np.zeros((len(p), 3)), np.zeros((len(p), 3, 3))
+    perm = [2, 0, 1]  # bar-0 components (x, y, z) = sheet (Z, X, Y)
     for k, Q in enumerate(_ROT):
         off, half = (cx, cy) if k % 2 == 0 else (cy, cx)
         if half <= 0.0:
             continue
         q = p @ Q  # into the frame of bar 0 (x = off + s, current along +y)
-        # sheet frame: (X, Y, Z) = (y, z, x − off − s): a rectangle [−half, half] × [−h/2, h/2]
-        for sk, wk in zip(s, ws, strict=True):
-            loc = np.column_stack([q[:, 1], q[:, 2], q[:, 0] - off - sk])
-            E, dE = rect_sheet_local(half, h / 2, loc)
-            perm = [2, 0, 1]  # bar-0 components (x, y, z) = sheet (Z, X, Y)
-            Eb = E[:, perm]
-            b = np.column_stack([Eb[:, 2], np.zeros(len(p)), -Eb[:, 0]])  # ŷ × E
-            B += wk * b @ Q.T
-            if grad:
-                dEb = dE[:, perm][:, :, perm]
-                gb = np.stack([dEb[:, 2, :], np.zeros((len(p), 3)), -dEb[:, 0, :]], axis=1)
-                G += wk * np.einsum("ia,nab,jb->nij", Q, gb, Q)
+        # sheet frame: (X, Y, Z) = (y, z, x − off − s): a rectangle [−half, half] × [−h/2, h/2],
+        # all offsets s at once: rows (point, offset)
+        loc = np.stack(
+            np.broadcast_arrays(q[:, None, 1], q[:, None, 2], q[:, None, 0] - off - s[None, :]),
+            axis=-1,
+        ).reshape(-1, 3)
+        E, dE = rect_sheet_local(half, h / 2, loc)
+        Eb = np.einsum("nsi,s->ni", E.reshape(len(p), len(s), 3), ws)[:, perm]
+        b = np.column_stack([Eb[:, 2], np.zeros(len(p)), -Eb[:, 0]])  # ŷ × E
+        B += b @ Q.T
+        if grad:
+            dEb = np.einsum("nsij,s->nij", dE.reshape(len(p), len(s), 3, 3), ws)
+            dEb = dEb[:, perm][:, :, perm]
+            gb = np.stack([dEb[:, 2, :], np.zeros((len(p), 3)), -dEb[:, 0, :]], axis=1)
+            G += np.einsum("ia,nab,jb->nij", Q, gb, Q)
     return B, G
 
 

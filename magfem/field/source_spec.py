@@ -346,8 +346,8 @@ class RacetrackCoilSpec(_PlacedSpec):
     inner_radius: float = quantity(25e-3, "m", gt=0.0, doc="corner radius of the bore")
     thickness: float = quantity(25e-3, "m", gt=0.0, doc="winding depth (outer - inner)")
     length: float = quantity(100e-3, "m", gt=0.0, doc="axial length of the winding")
-    turns: int = integer(1000, ge=1)
-    current: float = quantity(MISSING, "A", gt=0.0)
+    turns: int = integer(1000, ge=1, doc="number of turns")
+    current: float = quantity(MISSING, "A", gt=0.0, doc="current per turn (ampere-turns / turns)")
 
     KIND: ClassVar[str] = "racetrack_coil"
 
