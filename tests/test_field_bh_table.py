@@ -73,6 +73,16 @@ def test_bad_tables(change, match):
         )
 
 
+def test_parts_share_one_table():
+    other = IRON | {"center": [0.0, 0.0, 0.02], "bh_b": [b * 1.01 for b in B]}
+    field = {"sources": [{"kind": "uniform", "flux_density": 1}], "iron": [IRON, other]}
+    with pytest.raises(
+        CaseError, match=r"iron\[1\]\.bh_b = .*share one table \(that of iron\[0\]\)"
+    ):
+        from_table(FieldSpec, field, "field")
+    from_table(FieldSpec, field | {"iron": [IRON, IRON | {"center": [0.0, 0.0, 0.02]}]}, "f")
+
+
 @pytest.mark.slow  # one (r, z) P3 Newton solve: 4 s with its form compilation, 0.6 s warm
 def test_table_of_a_linear_law_gives_the_linear_sphere(comm):
     """B = µ0 µr H tabulated up to far above the interior H (~2.4 A/m): Newton through the

@@ -221,9 +221,10 @@ def _check_iron_groups(spec: FieldSpec) -> None:
     tables = [(k, (p.bh_h, p.bh_b)) for k, p in enumerate(spec.iron) if p.bh_h is not None]
     for k, t in tables[1:]:
         if t != tables[0][1]:
+            i = 0 if t[0] != tables[0][1][0] else 1
             raise CaseError(
-                f"iron[{k}].bh_h",
-                t[0],
+                f"iron[{k}].{('bh_h', 'bh_b')[i]}",
+                t[i],
                 f"all iron parts with a B-H table share one table (that of iron[{tables[0][0]}])",
             )
     group = spec.iron[0].motion
