@@ -142,6 +142,8 @@ def _source_parts(i: int, src: Any) -> list[tuple[Any, str, str, float]]:
             )
             for k, off in enumerate(offsets)
         ]
+    if src.kind == "racetrack_coil":
+        return [(_racetrack_grid(src), f"racetrack coil {i}", "#b87333", 0.35)]
     if src.kind == "cylinder_magnet":
         grid = pyvista.Cylinder(
             center=center, direction=axis, radius=src.radius, height=src.length, resolution=64
@@ -151,6 +153,24 @@ def _source_parts(i: int, src: Any) -> list[tuple[Any, str, str, float]]:
     return [
         (_solid_grid(Box(tuple(src.center), tuple(src.size), rot)), f"magnet {i}", "#708090", 1.0)
     ]
+
+
+def _racetrack_grid(src: Any) -> Any:
+    """Structured grid of a racetrack coil's winding (inner and outer outline, two ends)."""
+    cx, cy = src.half_sides
+    phi = np.linspace(0.0, 0.5 * np.pi, 17)
+    corners = ((cx, cy), (-cx, cy), (-cx, -cy), (cx, -cy))
+    f = np.concatenate([phi + 0.5 * np.pi * k for k in range(4)])
+    ox = np.repeat([c[0] for c in corners], len(phi))
+    oy = np.repeat([c[1] for c in corners], len(phi))
+    pts = np.zeros((2, len(f), 2, 3))
+    for a, s in enumerate((src.inner_radius, src.inner_radius + src.thickness)):
+        for b, z in enumerate((-src.length / 2, src.length / 2)):
+            pts[a, :, b] = np.column_stack(
+                [ox + s * np.cos(f), oy + s * np.sin(f), np.full_like(f, z)]
+            )
+    world = np.asarray(src.center) + pts @ frame(np.asarray(src.unit_axis), src.roll).T
+    return pyvista.StructuredGrid(world[..., 0], world[..., 1], world[..., 2])
 
 
 def extreme_time(move: Mover, points: Points, times: Sequence[float], end: float) -> float | None:

@@ -80,6 +80,7 @@ __all__ = [
     "gradient_fd",
     "loop_field",
     "loop_on_axis",
+    "rect_sheet_local",
     "sheet_field",
     "thick_coil_local",
     "thick_coil_on_axis",
@@ -330,37 +331,51 @@ def _log_plus(v: np.ndarray, R: np.ndarray, rest: np.ndarray) -> np.ndarray:
         return np.where(v >= 0, np.log(np.abs(v + R)), np.log(rest / (R - v)))
 
 
+def rect_sheet_local(a: float, b: float, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """E = ∫∫ (p − X)/|p − X|³ dA (N, 3), m⁻¹·m², and ∇E (N, 3, 3), 1/m, over the rectangle
+    [−a, a] × [−b, b] in the plane z = 0, at local points p (N, 3) off the rectangle.
+
+    The Coulomb field of a unit charge density on the rectangle (the sums of the
+    module docstring with σ' = 1); ∇E is symmetric and traceless.
+    """
+    x, y = p[:, 0], p[:, 1]
+    Z = np.where(p[:, 2] == 0.0, 1e-300, p[:, 2])
+    E = np.zeros((len(p), 3))
+    G = np.zeros((len(p), 3, 3))
+    for (xi, si), (yj, sj) in itertools.product(((-a, -1.0), (a, 1.0)), ((-b, -1.0), (b, 1.0))):
+        u, v = xi - x, yj - y
+        R = np.sqrt(u**2 + v**2 + Z**2)
+        s = si * sj
+        iv = _inv_sum(v, R, u**2 + Z**2)  # 1/(v + R)
+        iu = _inv_sum(u, R, v**2 + Z**2)  # 1/(u + R)
+        E[:, 0] += s * _log_plus(v, R, u**2 + Z**2)
+        E[:, 1] += s * _log_plus(u, R, v**2 + Z**2)
+        E[:, 2] += s * np.arctan(u * v / (Z * R))
+        G[:, 0, 0] -= s * u * iv / R
+        G[:, 0, 1] -= s / R
+        G[:, 0, 2] += s * Z * iv / R
+        G[:, 1, 1] -= s * v * iu / R
+        G[:, 1, 2] += s * Z * iu / R
+    G[:, 1, 0] = G[:, 0, 1]
+    G[:, 2, 0] = G[:, 0, 2]
+    G[:, 2, 1] = G[:, 1, 2]
+    G[:, 2, 2] = -G[:, 0, 0] - G[:, 1, 1]
+    return E, G
+
+
 def block_magnet_local(
     half: np.ndarray, remanence: float, p: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """B (N, 3), T, and ∇B (N, 3, 3), T/m, of the block [−a, a] × [−b, b] × [−c, c] magnetised
     along z, at local points p (N, 3) (module docstring)."""
     a, b, c = (float(h) for h in half)
-    x, y, z = p[:, 0], p[:, 1], p[:, 2]
     H = np.zeros((len(p), 3))  # µ0 H, T
     G = np.zeros((len(p), 3, 3))  # ∂(µ0 H_i)/∂x_j, T/m
     for z0, sigma in ((c, 1.0), (-c, -1.0)):
-        Z = z - z0
-        Z = np.where(Z == 0.0, 1e-300, Z)
-        for (xi, si), (yj, sj) in itertools.product(((-a, -1.0), (a, 1.0)), ((-b, -1.0), (b, 1.0))):
-            u, v = xi - x, yj - y
-            R = np.sqrt(u**2 + v**2 + Z**2)
-            s = sigma * si * sj * remanence / (4 * math.pi)
-            iv = _inv_sum(v, R, u**2 + Z**2)  # 1/(v + R)
-            iu = _inv_sum(u, R, v**2 + Z**2)  # 1/(u + R)
-            H[:, 0] += s * _log_plus(v, R, u**2 + Z**2)
-            H[:, 1] += s * _log_plus(u, R, v**2 + Z**2)
-            H[:, 2] += s * np.arctan(u * v / (Z * R))
-            G[:, 0, 0] -= s * u * iv / R
-            G[:, 0, 1] -= s / R
-            G[:, 0, 2] += s * Z * iv / R
-            G[:, 1, 1] -= s * v * iu / R
-            G[:, 1, 2] += s * Z * iu / R
-    G[:, 1, 0] = G[:, 0, 1]
-    G[:, 2, 0] = G[:, 0, 2]
-    G[:, 2, 1] = G[:, 1, 2]
-    G[:, 2, 2] = -G[:, 0, 0] - G[:, 1, 1]
-    inside = (np.abs(x) < a) & (np.abs(y) < b) & (np.abs(z) < c)
+        E, dE = rect_sheet_local(a, b, p - np.array([0.0, 0.0, z0]))
+        H += sigma * remanence / (4 * math.pi) * E
+        G += sigma * remanence / (4 * math.pi) * dE
+    inside = np.all(np.abs(p) < np.array([a, b, c]), axis=1)
     H[inside, 2] += remanence
     return H, G
 

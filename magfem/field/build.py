@@ -23,6 +23,7 @@ from magfem.field.source import (
     BlockMagnetField,
     CoilField,
     CylinderMagnetField,
+    RacetrackCoilField,
     SourceField,
     SumField,
     UniformField,
@@ -32,6 +33,7 @@ from magfem.field.source_spec import (
     CoilPairSpec,
     CoilSpec,
     CylinderMagnetSpec,
+    RacetrackCoilSpec,
     SourceSpec,
     UniformSourceSpec,
 )
@@ -92,6 +94,19 @@ def closed_form_field(spec: SourceSpec, name: str) -> SourceField:
         current = coil_current(spec)
         center = np.array(spec.center)
         return CoilField(center, spec.unit_axis, *section, current, windings, name=name)
+    if isinstance(spec, RacetrackCoilSpec):
+        r1 = spec.inner_radius
+        return RacetrackCoilField(
+            np.array(spec.center),
+            spec.unit_axis,
+            spec.half_sides,
+            r1,
+            r1 + spec.thickness,
+            spec.length,
+            spec.turns * spec.current,
+            spec.roll,
+            name=name,
+        )
     if isinstance(spec, CylinderMagnetSpec):
         axis, m = spec.unit_axis, spec.remanence
         return CylinderMagnetField(
@@ -176,6 +191,8 @@ def build_terms(
 
 def _waveform(spec: SourceSpec, i: int) -> Waveform:
     nominal = coil_current(spec) if isinstance(spec, CoilSpec) else None
+    if isinstance(spec, RacetrackCoilSpec):
+        nominal = spec.current
     return build_waveform(
         spec.waveform, nominal_current=nominal, key=f"field.sources[{i}].waveform"
     )

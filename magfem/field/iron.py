@@ -12,8 +12,8 @@ only the iron's reaction is solved for. With b = µ0 H (T):
   10⁻⁶/s² ∫ g w; s the iron's size), so u + g is the *total* potential
   there and the small field inside highly permeable iron carries no
   cancellation error (a reduced potential alone would lose it as µr grows);
-* B = B(b) in iron: linear µr b, or the saturating law of
-  :mod:`magfem.field.iron_spec`.
+* B = B(b) in iron: linear µr b, the saturating law of
+  :mod:`magfem.field.iron_spec`, or a measured curve (:mod:`magfem.field.bh_table`).
 
 div B = 0 with the source's own flux balance subtracted gives, for all w,
 
@@ -121,6 +121,14 @@ class _Problem:
         self.mu.x.scatter_forward()
         self.js.x.scatter_forward()
         self.linear = all(p.linear for p in parts)
+        curves = [(p.bh_curve(), tag) for p, tag in zip(parts, self.tags, strict=True)]
+        self.curve = next((c for c, _ in curves if c is not None), None)
+        self.knots = None if self.curve is None else self.curve.constant(self.msh)
+        self.tab = fem.Function(Q)  # 1 on the cells of the tabulated curve
+        for c, tag in curves:
+            if c is not None:
+                self.tab.x.array[cell_tags.find(tag)] = 1.0
+        self.tab.x.scatter_forward()
 
     def _boundary(self, center: np.ndarray, r_air: float, q: int) -> None:
         msh = self.msh
@@ -153,7 +161,10 @@ class _Problem:
             return self.mu * b
         nb = ufl.sqrt(ufl.dot(b, b) + 1e-24)
         a = math.pi * (self.mu - 1.0) / (2.0 * self.js)
-        return b * (1.0 + 2.0 * self.js / math.pi * ufl.atan(a * nb) / nb)
+        law = b * (1.0 + 2.0 * self.js / math.pi * ufl.atan(a * nb) / nb)
+        if self.curve is None:
+            return law
+        return self.tab * b * self.curve.ufl(nb, self.knots) / nb + (1.0 - self.tab) * law
 
     def source(self, load: SourceField) -> Any:
         """B_s of ``load`` interpolated on the iron cells (vector Lagrange, gdim components)."""
@@ -266,6 +277,15 @@ def _solve_nonlinear(P: _Problem, u: Any, g: Any, Bs: Any, name: str) -> int:
     problem.solve()
     snes: Any = problem.solver
     reason, its = int(snes.getConvergedReason()), int(snes.getIterationNumber())
+    if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+        # CG stops when GAMG's smoother is not positive on a strongly saturated Jacobian
+        # (differential µr from ~1 to ~10⁴ side by side): GMRES from the last iterate
+        ksp = snes.getKSP()
+        ksp.setType("gmres")
+        ksp.setGMRESRestart(200)
+        problem.solve()
+        reason = int(snes.getConvergedReason())
+        its += int(snes.getIterationNumber())
     if reason <= 0:
         raise RuntimeError(
             f"{name}: nonlinear iron solve failed (SNES reason {reason} after {its} iterations); "

@@ -27,7 +27,10 @@ B-H law (isotropic): linear, B = µ0 µr H, with ``permeability`` = µr; or,
 when ``saturation`` J_s is given, B = µ0 H + (2 J_s/π) arctan(π (µr − 1) µ0 H
 / (2 J_s)) along H (initial relative permeability µr, polarisation
 saturating at J_s; smooth and odd, so Newton converges and a reversed
-source gives the reversed field).
+source gives the reversed field); or a measured curve, ``bh_h`` (A/m) and
+``bh_b`` (T) from (0, 0), interpolated monotonically with the straight
+continuation of slope µ0 beyond its last point (:mod:`magfem.field.bh_table`;
+``permeability`` is then the µr of the linear solve that starts Newton).
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from magfem.config import MISSING, CaseError, build_fields, option, quantity, vector
+from magfem.field.bh_table import BHCurve
 from magfem.field.placement import frame
 from magfem.geometry.sources import (
     Ball,
@@ -78,6 +82,12 @@ class IronSpec(ABC):
     kind: str = option("sphere", IRON_KINDS)
     permeability: float = quantity(1000.0, "", ge=1.0, doc="relative (initial) permeability")
     saturation: float | None = quantity(None, "T", gt=0.0, doc="saturation polarisation J_s")
+    bh_h: tuple[float, ...] | None = vector(
+        None, "A/m", length=None, doc="B-H table: H values from 0, increasing (with bh_b)"
+    )
+    bh_b: tuple[float, ...] | None = vector(
+        None, "T", length=None, doc="B-H table: B values from 0, increasing (with bh_h)"
+    )
     motion: str = option("", doc="name of a [[field.motions]] entry that moves it ('' = fixed)")
 
     KIND: ClassVar[str] = ""
@@ -90,12 +100,30 @@ class IronSpec(ABC):
             raise CaseError(
                 f"{where}.kind", kind, "unknown iron kind; must be one of " + ", ".join(IRON_KINDS)
             )
-        return build_fields(classes[kind], table, where)
+        spec = build_fields(classes[kind], table, where)
+        try:
+            spec.bh_curve()
+        except CaseError as err:
+            raise CaseError(f"{where}.{err.key}", err.value, err.problem) from None
+        return spec
 
     @property
     def linear(self) -> bool:
-        """True for a linear B-H law (no ``saturation``)."""
-        return self.saturation is None
+        """True for a linear B-H law (no ``saturation``, no B-H table)."""
+        return self.saturation is None and self.bh_h is None
+
+    def bh_curve(self) -> BHCurve | None:
+        """The tabulated B-H curve, or None; CaseError naming the key if the table is invalid."""
+        if self.bh_h is None and self.bh_b is None:
+            return None
+        if self.bh_h is None or self.bh_b is None:
+            missing = "bh_h" if self.bh_h is None else "bh_b"
+            raise CaseError(missing, MISSING, "a B-H table needs both bh_h and bh_b")
+        if self.saturation is not None:
+            raise CaseError(
+                "saturation", self.saturation, "give saturation or a B-H table, not both"
+            )
+        return BHCurve.from_table(self.bh_h, self.bh_b)
 
     # -- geometry (reference placement) ----------------------------------------------------
     @abstractmethod

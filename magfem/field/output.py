@@ -120,6 +120,9 @@ def _source_corners(s: Any) -> np.ndarray:
     c = np.asarray(s.center, dtype=float)
     if hasattr(s, "size"):
         r = h = 0.5 * float(np.linalg.norm(s.size))
+    elif hasattr(s, "inner_size"):  # racetrack coil: the outer corners of its winding
+        r = float(np.hypot(*(np.asarray(s.inner_size) / 2 + s.thickness)))
+        h = s.length / 2
     else:
         r = float(getattr(s, "outer_radius", 0.0) or s.radius)
         h = getattr(s, "separation", 0.0) / 2 + s.length / 2

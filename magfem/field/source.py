@@ -3,8 +3,8 @@
 :class:`SourceField` is what the field models combine: B (N, 3) in T and
 ∇B (N, 3, 3) in T/m (``G[n, i, j] = ∂B_i/∂x_j``) at points (N, 3) in m, in
 the reference placement of the case file. The closed-form fields here
-(:class:`UniformField`, :class:`CoilField`, :class:`CylinderMagnetField`,
-:class:`BlockMagnetField`) are exact and local to each rank; the iron
+(:class:`UniformField`, :class:`CoilField`, :class:`RacetrackCoilField`,
+:class:`CylinderMagnetField`, :class:`BlockMagnetField`) are exact and local to each rank; the iron
 reaction fields (:mod:`magfem.field.reaction`) are collective. ∇∇B
 (N, 3, 3, 3), only needed by the ``taylor2`` model, is the 4th-order central
 difference of the gradient (exact gradients: error ~1e-10 of ∇∇B with the
@@ -19,12 +19,14 @@ from collections.abc import Sequence
 import numpy as np
 
 import magfem.field.analytic as an
+import magfem.field.racetrack as rt
 from magfem.field.placement import frame
 
 __all__ = [
     "BlockMagnetField",
     "CoilField",
     "CylinderMagnetField",
+    "RacetrackCoilField",
     "SourceField",
     "SumField",
     "UniformField",
@@ -181,6 +183,46 @@ class CoilField(_Placed):
 
     def unresolved(self, points: np.ndarray) -> np.ndarray:
         return self._winding_distance(points) < an.coil_resolution(self.r1, self.r2)
+
+
+class RacetrackCoilField(_Placed):
+    """Racetrack coil (:mod:`magfem.field.racetrack`): winding offsets r1 < r2 from the spine
+    rectangle of half-sides (cx, cy) in the local x-y plane, axial ``height``, all m;
+    ``ampere_turns`` (A) counter-clockwise about ``axis``; ``roll`` turns the local x side."""
+
+    def __init__(
+        self,
+        center: np.ndarray,
+        axis: np.ndarray,
+        half_sides: tuple[float, float],
+        r1: float,
+        r2: float,
+        height: float,
+        ampere_turns: float,
+        roll: float = 0.0,
+        name: str = "coil",
+    ):
+        self.cx, self.cy = (float(v) for v in half_sides)
+        size = float(np.linalg.norm([self.cx + r2, self.cy + r2, height / 2]))
+        super().__init__(center, axis, roll, size, name)
+        self.r1, self.r2, self.height, self.ampere_turns = r1, r2, height, ampere_turns
+
+    def _args(self) -> tuple[float, float, float, float, float]:
+        return self.cx, self.cy, self.r1, self.r2, self.height
+
+    def _local_field(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return rt.racetrack_local(*self._args(), self.ampere_turns, p)
+
+    def flux_density(self, points: np.ndarray) -> np.ndarray:
+        B, _ = rt.racetrack_local(*self._args(), self.ampere_turns, self._local(points), grad=False)
+        return B @ self.Q.T
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        return rt.racetrack_distance(*self._args(), self._local(points)) <= 0.0
+
+    def unresolved(self, points: np.ndarray) -> np.ndarray:
+        d = rt.racetrack_distance(*self._args(), self._local(points))
+        return d < rt.racetrack_resolution(self.r1, self.r2)
 
 
 class CylinderMagnetField(_Placed):

@@ -12,6 +12,11 @@ Source kinds and their keys (lengths in m, SI or strings with units):
                           distance of the two windings) and ``polarity``
                           (``same``: Helmholtz-like uniform field;
                           ``opposite``: Maxwell-like gradient field)
+``racetrack_coil``        ``center``, ``axis``, ``roll`` (rotation of the
+                          local x side about ``axis``), ``inner_size``
+                          (local x, y edges of the bore), ``inner_radius``
+                          (bore corner radius), ``thickness`` (winding
+                          depth), ``length`` (axial), ``turns``, ``current``
 ``cylinder_magnet``       ``center``, ``axis`` (magnetisation direction),
                           ``radius``, ``length``, ``remanence`` (T)
 ``block_magnet``          ``center``, ``axis`` (magnetisation direction =
@@ -55,6 +60,7 @@ from magfem.config import (
     vector,
 )
 from magfem.field.placement import frame
+from magfem.field.racetrack import racetrack_distance
 
 __all__ = [
     "SOURCE_KINDS",
@@ -63,6 +69,7 @@ __all__ = [
     "CoilPairSpec",
     "CoilSpec",
     "CylinderMagnetSpec",
+    "RacetrackCoilSpec",
     "SourceSpec",
     "UniformSourceSpec",
     "WaveformSpec",
@@ -73,7 +80,14 @@ __all__ = [
     "unit_vector",
 ]
 
-SOURCE_KINDS = ("uniform", "coil", "coil_pair", "cylinder_magnet", "block_magnet")
+SOURCE_KINDS = (
+    "uniform",
+    "coil",
+    "coil_pair",
+    "racetrack_coil",
+    "cylinder_magnet",
+    "block_magnet",
+)
 WAVEFORM_KINDS = ("dc", "square", "sine", "trigger", "table", "square_rl")
 
 _WAVEFORM_COMMON = ("kind", "start", "amplitude")
@@ -313,6 +327,48 @@ class CoilPairSpec(CoilSpec):
 
 
 @dataclass(frozen=True, kw_only=True)
+class RacetrackCoilSpec(_PlacedSpec):
+    """A racetrack coil: a rounded-rectangle winding of rectangular cross-section.
+
+    The bore is ``inner_size`` (local x, y edges) with corners of radius
+    ``inner_radius``; the winding is ``thickness`` deep (outer corners of radius
+    inner_radius + thickness) and ``length`` long along ``axis``; ``turns`` ×
+    ``current`` ampere-turns flow counter-clockwise about ``axis``, uniformly
+    over the cross-section. inner_radius = inner_size / 2 (a square bore) is a
+    thick circular coil.
+    """
+
+    kind: str = option("racetrack_coil", ("racetrack_coil",))
+    roll: float = quantity(0.0, "rad", doc="rotation of the local x side about axis")
+    inner_size: tuple[float, ...] = vector(
+        (150e-3, 150e-3), "m", length=2, doc="bore edges along local x, y"
+    )
+    inner_radius: float = quantity(25e-3, "m", gt=0.0, doc="corner radius of the bore")
+    thickness: float = quantity(25e-3, "m", gt=0.0, doc="winding depth (outer - inner)")
+    length: float = quantity(100e-3, "m", gt=0.0, doc="axial length of the winding")
+    turns: int = integer(1000, ge=1, doc="number of turns")
+    current: float = quantity(MISSING, "A", gt=0.0, doc="current per turn (ampere-turns / turns)")
+
+    KIND: ClassVar[str] = "racetrack_coil"
+
+    def __post_init__(self) -> None:
+        if not 2 * self.inner_radius <= min(self.inner_size):
+            raise CaseError(
+                "inner_radius",
+                self.inner_radius,
+                f"must be <= half the smaller bore edge ({min(self.inner_size) / 2:g} m)",
+            )
+
+    @property
+    def half_sides(self) -> tuple[float, float]:
+        """Half-sides (m) of the spine rectangle (the corner arcs' centres)."""
+        return (
+            self.inner_size[0] / 2 - self.inner_radius,
+            self.inner_size[1] / 2 - self.inner_radius,
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
 class CylinderMagnetSpec(_PlacedSpec):
     """Axially magnetised cylinder magnet (remanence ``remanence`` along ``axis``)."""
 
@@ -344,6 +400,7 @@ _SOURCE_CLASSES: tuple[type[SourceSpec], ...] = (
     UniformSourceSpec,
     CoilSpec,
     CoilPairSpec,
+    RacetrackCoilSpec,
     CylinderMagnetSpec,
     BlockMagnetSpec,
 )
@@ -376,6 +433,11 @@ def inside_source(spec: SourceSpec, points: np.ndarray) -> np.ndarray:
     pts = np.atleast_2d(points)
     if isinstance(spec, CoilSpec):
         return inside_winding(spec, pts)
+    if isinstance(spec, RacetrackCoilSpec):
+        loc = (pts - np.asarray(spec.center)) @ frame(spec.unit_axis, spec.roll)
+        r1 = spec.inner_radius
+        d = racetrack_distance(*spec.half_sides, r1, r1 + spec.thickness, spec.length, loc)
+        return d <= 0.0
     if isinstance(spec, CylinderMagnetSpec):
         d = pts - np.asarray(spec.center)
         z = d @ spec.unit_axis

@@ -218,6 +218,15 @@ def _check_overlaps(spec: FieldSpec) -> None:
 
 
 def _check_iron_groups(spec: FieldSpec) -> None:
+    tables = [(k, (p.bh_h, p.bh_b)) for k, p in enumerate(spec.iron) if p.bh_h is not None]
+    for k, t in tables[1:]:
+        if t != tables[0][1]:
+            i = 0 if t[0] != tables[0][1][0] else 1
+            raise CaseError(
+                f"iron[{k}].{('bh_h', 'bh_b')[i]}",
+                t[i],
+                f"all iron parts with a B-H table share one table (that of iron[{tables[0][0]}])",
+            )
     group = spec.iron[0].motion
     for k, part in enumerate(spec.iron):
         if part.motion != group:
@@ -250,7 +259,7 @@ def _check_iron_groups(spec: FieldSpec) -> None:
             raise CaseError(
                 f"sources[{i}].waveform",
                 w.kind,
-                "nonlinear iron (saturation given) needs all sources on one waveform taking "
-                "only the values -1, 0, 1 (dc, square or trigger, amplitude 1); "
+                "nonlinear iron (saturation or a B-H table) needs all sources on one waveform "
+                "taking only the values -1, 0, 1 (dc, square or trigger, amplitude 1); "
                 "otherwise give the iron a linear permeability only",
             )
