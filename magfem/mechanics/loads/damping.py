@@ -12,7 +12,12 @@ velocity, for every model (its elastic energy Π_el). At small strain this is
 the Kelvin–Voigt solid σ = C:(ε + β ε̇) (Rayleigh stiffness-proportional
 damping): a vibration mode of angular frequency ω decays with the damping
 ratio ζ = β ω/2, and a harmonic strain has the loss tangent tan δ = β ω.
-Rigid motions of the unstressed body are not damped. The case gives β, or
+Rigid motions of the unstressed body are not damped; those of a stressed
+body are, through the geometric part of the tangent, which is indefinite
+under compression: at large rotations this force can feed energy instead of
+removing it (docs/physics.md: on the two-arm strip at 20 Hz the arm bent
+faster with it, and Newton failed; ``python -m
+benchmarks.material_damping_effect``). The case gives β, or
 a loss tangent at a frequency (β = tan δ/(2π f)), which a dynamic mechanical
 analysis of the user's elastomer provides: the loss tangent of
 NdFeB-filled PDMS depends on the filler, the cure and the frequency, and
