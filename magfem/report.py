@@ -297,7 +297,7 @@ def _scene_section(
         out += _difference_lines(study, records[0], records[-1])
     if failed:
         out += _failed_lines(failed, sweep_dir)
-    fig = _figure(study, done, sweep_dir, figures)
+    fig = _figure(study, done, failed, sweep_dir, figures)
     if fig is not None:
         out += [f"![{study.ident}]({fig.relative_to(docs).as_posix()})", ""]
     return out
@@ -391,13 +391,18 @@ def _failed_lines(failed: list[dict[str, Any]], sweep_dir: Path) -> list[str]:
 
 
 def _figure(
-    study: Study, done: list[dict[str, Any]], sweep_dir: Path, figures: Path
+    study: Study,
+    done: list[dict[str, Any]],
+    failed: list[dict[str, Any]],
+    sweep_dir: Path,
+    figures: Path,
 ) -> Path | None:
-    """The scene's figure in ``figures``: the study's ``figure`` histories, else the sweep
-    plot (several runs) or the single run's angle history; None without a finished run."""
+    """The scene's figure in ``figures``: the study's ``figure`` histories (of the finished
+    runs and of the failed ones until they failed), else the sweep plot (several runs) or the
+    single run's angle history; None without a run to show."""
     dest = figures / f"scenes_{re.sub(r'[^a-z0-9]+', '_', study.ident)}.png"
-    if study.figure and done:
-        return _history_figure(study.figure, done, sweep_dir, dest)
+    if study.figure and (done or failed):
+        return _history_figure(study.figure, [*done, *failed], sweep_dir, dest)
     src = None
     if len(done) == 1:
         src = sweep_dir / "points" / done[0]["point"] / "angle.png"
@@ -416,7 +421,7 @@ _SCALES = {"m": (1e3, "mm"), "rad": (180.0 / math.pi, "°"), "m/s": (1e3, "mm/s"
 def _history_figure(
     columns: Sequence[str], done: list[dict[str, Any]], sweep_dir: Path, dest: Path
 ) -> Path | None:
-    """One panel per history column against time (ms), a line per finished run labelled by
+    """One panel per history column against time (ms), a line per run labelled by
     its parameters; columns a run's history lacks are left out (None if all are). Lengths,
     angles and speeds whose unit the history names are shown in mm, ° and mm/s; a column
     without a unit in the history's header in SI."""

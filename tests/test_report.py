@@ -142,10 +142,11 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
 
 
-def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypatch):
+@pytest.mark.parametrize("status", ["done", "failed"])
+def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypatch, status):
     """``figure = [...]``: the scene's figure is those history columns against time, one
-    line per finished run; a column no run has is left out, and with none left there is no
-    figure."""
+    line per run (a failed run's history until it failed); a column no run has is left out,
+    and with none left there is no figure."""
     monkeypatch.chdir(repo)
     folder = tmp_path / "studies"
     folder.mkdir()
@@ -159,7 +160,7 @@ def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypat
     for pt in build_points([parse_param(p) for p in study.params], fprint):
         point = tmp_path / "out" / "probe" / "points" / pt.ident
         point.mkdir(parents=True)
-        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
+        record = {"params": pt.params, "status": status, "wall_s": 1.0, "fingerprint": fprint}
         (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
         (point / "history.csv").write_text("time [s],com_x [m]\n0,0\n0.01,0.002\n")
     kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
