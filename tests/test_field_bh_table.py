@@ -15,8 +15,16 @@ from magfem.field.iron import solve_iron
 from magfem.field.iron_spec import IronSpec
 from magfem.field.source import UniformField
 from magfem.field.spec import FieldSpec, SolveSpec
-from tests.test_field_iron import B0, A, _errors, _linear_reference
-from verification.field_references import iron_sphere
+from verification.field_references import (
+    SPHERE_FIELD,
+    SPHERE_RADIUS,
+    iron_sphere,
+    linear_sphere,
+    sphere_errors,
+)
+
+A = SPHERE_RADIUS
+B0 = SPHERE_FIELD
 
 # a knee-shaped steel curve (H A/m, B T) ending on a secant above µ0
 H = (0.0, 50.0, 100.0, 200.0, 400.0, 1000.0, 5000.0, 20000.0, 60000.0)
@@ -99,7 +107,7 @@ def test_table_of_a_linear_law_gives_the_linear_sphere(comm):
     assert not part.linear
     solve = from_table(SolveSpec, {}, "solve")  # (r, z), P3, as the linear sphere's test
     (reaction,) = solve_iron([part], [UniformField(B0)], solve, comm)
-    err = _errors(reaction, *_linear_reference(1000.0))
+    err = sphere_errors(reaction, *linear_sphere(1000.0))
     # the linear test's bounds; measured the linear solve's own errors (interior 1.4e-7,
     # B 1.6e-4, moment 9.5e-8): the table is exact for a linear law below 20 A/m
     assert err["interior"] < 5e-7

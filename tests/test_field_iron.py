@@ -22,18 +22,18 @@ from magfem.field.iron_spec import IronSpec
 from magfem.field.model import create_field_model
 from magfem.field.source import CylinderMagnetField, UniformField
 from magfem.field.spec import FieldSpec, SolveSpec
-from verification.field_references import iron_sphere, sphere_in_axial_field
+from verification.field_references import (
+    SPHERE_FIELD,
+    SPHERE_RADIUS,
+    iron_sphere,
+    linear_sphere,
+    sphere_errors,
+    sphere_in_axial_field,
+    sphere_points,
+)
 
-A = 5e-3  # sphere radius, m
-B0 = np.array([0.0, 0.0, 1e-3])
-
-
-def _points(n: int = 60, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Random points inside (r < 0.9 a) and outside (1.2 a < r < 4 a) the sphere."""
-    rng = np.random.default_rng(seed)
-    d = rng.normal(size=(n, 3))
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    return d * rng.uniform(0, 0.9 * A, (n, 1)), d * rng.uniform(1.2 * A, 4 * A, (n, 1))
+A = SPHERE_RADIUS
+B0 = SPHERE_FIELD
 
 
 def _sphere(mu_r: float = 1000.0, saturation: float | None = None) -> IronSpec:
@@ -43,30 +43,13 @@ def _sphere(mu_r: float = 1000.0, saturation: float | None = None) -> IronSpec:
     return from_table(IronSpec, table, "iron")
 
 
-def _errors(reaction, b_in: np.ndarray, moment: np.ndarray) -> dict[str, float]:
-    inner, outer = _points()
-    B, G = reaction.field_and_gradient(outer)
-    Bd, Gd = an.dipole_field(moment, outer), an.dipole_gradient(moment, outer)
-    return {
-        "interior": np.abs(reaction.iron_flux_density(inner) - b_in).max() / np.linalg.norm(b_in),
-        "B": np.linalg.norm(B - Bd, axis=1).max() / np.linalg.norm(Bd, axis=1).max(),
-        "G": np.linalg.norm(G - Gd, axis=(1, 2)).max() / np.linalg.norm(Gd, axis=(1, 2)).max(),
-        "moment": np.linalg.norm(reaction.moment - moment) / np.linalg.norm(moment),
-    }
-
-
-def _linear_reference(mu_r: float) -> tuple[np.ndarray, np.ndarray]:
-    b_in = 3 * mu_r / (mu_r + 2) * B0
-    return b_in, 4 * math.pi * A**3 / an.MU0 * (mu_r - 1) / (mu_r + 2) * B0
-
-
 @pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_linear_iron_sphere_axisymmetric(comm):
     """Acceptance: interior 3 µr/(µr + 2) B0 and the exterior dipole within 0.1 %."""
     solve = from_table(SolveSpec, {}, "solve")  # defaults: (r, z), P3, curved, h = a/20
     (reaction,) = solve_iron([_sphere()], [UniformField(B0)], solve, comm)
     assert reaction.axis is not None
-    err = _errors(reaction, *_linear_reference(1000.0))
+    err = sphere_errors(reaction, *linear_sphere(1000.0))
     # measured (1 and 2 ranks): interior 1.4e-7, B 1.6e-4 and ∇B 1.4e-3 of the largest dipole
     # field over 1.2-4 a, moment 9e-8; bounds ~3x
     assert err["interior"] < 5e-7
@@ -80,7 +63,7 @@ def test_linear_iron_sphere_3d(comm):
     solve = from_table(SolveSpec, {"geometry": "3d", "mesh_size": "1 mm"}, "solve")
     (reaction,) = solve_iron([_sphere()], [UniformField(B0)], solve, comm)
     assert reaction.axis is None
-    err = _errors(reaction, *_linear_reference(1000.0))
+    err = sphere_errors(reaction, *linear_sphere(1000.0))
     # P2 with curved (P2) tetrahedra of a/5 at the surface, 34k dofs: measured interior 5.1e-3,
     # B 2.0e-2, ∇B 0.13 of the largest dipole field, moment 8.9e-4 (1 and 2 ranks); the
     # (r, z) solve above is the accurate one for axisymmetric parts (docs/field.md)
@@ -127,7 +110,7 @@ def test_far_field_beyond_the_air_region_is_the_dipole(comm):
     R = reaction.r_air
     dirs = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.6, 0.0, 0.8]])
     inside, outside = 0.97 * R * dirs, 0.99 * R * dirs
-    _, moment = _linear_reference(1000.0)
+    _, moment = linear_sphere(1000.0)
     # just inside: the FE field on the coarse outer mesh (Robin boundary matched to the dipole):
     # measured 1.5e-3 of the dipole there; just outside: the dipole of the computed moment
     ref = an.dipole_field(moment, inside)
@@ -233,7 +216,7 @@ def test_sphere_in_the_field_of_a_coaxial_magnet(comm):
     # branch points at 10.9 mm from the centre: Taylor coefficients on |z| = 7 mm
     reaction_ref, interior_ref = sphere_in_axial_field(A, 1000.0, hz, 7e-3)
     magnet = CylinderMagnetField(np.array([0, 0, zc]), np.array([0, 0, 1.0]), R, L, Br)
-    inner, outer = _points(80, seed=4)
+    inner, outer = sphere_points(80, seed=4)
     outer = outer[outer[:, 2] < 0.008]  # not inside the magnet
     bounds = {"axisymmetric": (1e-3, 1e-4), "3d": (5e-2, 2.5e-2)}
     for geometry, (b_out, b_in) in bounds.items():

@@ -142,3 +142,39 @@ def sphere_in_axial_field(a, mu_r, hz, rho, n_max=40, n_fft=128):
         return field(points, cn, lambda nn: nn, lambda nn: -nn, MU0 * mu_r)
 
     return reaction, interior
+
+
+SPHERE_RADIUS = 5e-3
+"""a (m): the iron sphere of the field tests."""
+
+SPHERE_FIELD = np.array([0.0, 0.0, 1e-3])
+"""B0 (T): the uniform field the sphere sits in."""
+
+
+def sphere_points(n: int = 60, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Random points inside (r < 0.9 a) and outside (1.2 a < r < 4 a) the test sphere."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    a = SPHERE_RADIUS
+    return d * rng.uniform(0, 0.9 * a, (n, 1)), d * rng.uniform(1.2 * a, 4 * a, (n, 1))
+
+
+def linear_sphere(mu_r: float) -> tuple[np.ndarray, np.ndarray]:
+    """(interior B (T), dipole moment (A m²)) of the linear test sphere in SPHERE_FIELD."""
+    b_in = 3 * mu_r / (mu_r + 2) * SPHERE_FIELD
+    return b_in, 4 * math.pi * SPHERE_RADIUS**3 / MU0 * (mu_r - 1) / (mu_r + 2) * SPHERE_FIELD
+
+
+def sphere_errors(reaction, b_in: np.ndarray, moment: np.ndarray) -> dict[str, float]:
+    """Relative errors of an iron reaction against a uniform interior ``b_in`` and the
+    exterior dipole ``moment``: interior B, exterior B and ∇B, the moment."""
+    inner, outer = sphere_points()
+    B, G = reaction.field_and_gradient(outer)
+    Bd, Gd = an.dipole_field(moment, outer), an.dipole_gradient(moment, outer)
+    return {
+        "interior": np.abs(reaction.iron_flux_density(inner) - b_in).max() / np.linalg.norm(b_in),
+        "B": np.linalg.norm(B - Bd, axis=1).max() / np.linalg.norm(Bd, axis=1).max(),
+        "G": np.linalg.norm(G - Gd, axis=(1, 2)).max() / np.linalg.norm(Gd, axis=(1, 2)).max(),
+        "moment": np.linalg.norm(reaction.moment - moment) / np.linalg.norm(moment),
+    }
