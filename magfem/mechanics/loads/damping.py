@@ -1,27 +1,28 @@
-r"""Material damping of the elastomer: a viscosity proportional to the elastic stiffness.
+r"""Material damping of the elastomer: a Kelvin–Voigt viscosity on the strain rates.
 
-The damping force is the elastic tangent applied to the velocity, scaled by
-a relaxation time β (s):
+The damping force derives from the dissipation potential
 
 .. math::
 
-    W_d(q, \dot q)[w] = \beta\, D_q\big(\delta\Pi_{el}(q)[w]\big)[\dot q],
+    R(q, \dot q) = \tfrac12 \int \dot s : \mathbb C_0 : \dot s,\qquad
+    \dot s = D s(q)[\dot q],\qquad
+    W_d(q, \dot q)[w] = \beta\, \partial_{\dot q} R(q, \dot q)[w]
+        = \beta \int \mathbb C_0 \dot s : D s(q)[w],
 
-the directional derivative of the elastic force in the direction of the
-velocity, for every model (its elastic energy Π_el). At small strain this is
-the Kelvin–Voigt solid σ = C:(ε + β ε̇) (Rayleigh stiffness-proportional
+with s the model's objective strain measures (the Green strain of the
+solid and strip; the membrane, bending and shear strains of the shell; the
+strain and curvature of the rod), ℂ₀ its small-strain stiffness
+(:meth:`~magfem.mechanics.models.base.Model.strain_rate_energy`) and β a
+relaxation time (s). A rigid motion has ṡ = 0 at any state, so it is never
+damped, and the dissipated power 2βR is never negative. At small strain this
+is the Kelvin–Voigt solid σ = ℂ:(ε + β ε̇) (Rayleigh stiffness-proportional
 damping): a vibration mode of angular frequency ω decays with the damping
 ratio ζ = β ω/2, and a harmonic strain has the loss tangent tan δ = β ω.
-Rigid motions of the unstressed body are not damped; those of a stressed
-body are, through the geometric part of the tangent, which is indefinite
-under compression: at large rotations this force can feed energy instead of
-removing it (docs/physics.md: on the two-arm strip at 20 Hz the arm bent
-faster with it, and Newton failed; ``python -m
-benchmarks.material_damping_effect``). The case gives β, or
-a loss tangent at a frequency (β = tan δ/(2π f)), which a dynamic mechanical
-analysis of the user's elastomer provides: the loss tangent of
-NdFeB-filled PDMS depends on the filler, the cure and the frequency, and
-magfem has no default for it.
+``python -m benchmarks.material_damping_effect`` measures it on the two-arm
+strip at 20 Hz (docs/physics.md). The case gives β, or a loss tangent at a frequency
+(β = tan δ/(2π f)), which a dynamic mechanical analysis of the user's
+elastomer provides: the loss tangent of NdFeB-filled PDMS depends on the
+filler, the cure and the frequency, and magfem has no default for it.
 
     [[loads]]
     kind = "material_damping"
@@ -31,9 +32,7 @@ magfem has no default for it.
 
 from __future__ import annotations
 
-import functools
 import math
-import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -80,7 +79,7 @@ class MaterialDampingSpec(LoadSpec):
 
 
 class MaterialDamping(Load):
-    """The damping force β K(q) q̇ of the module docstring on ``model`` (β in s)."""
+    """The damping force β ∂R/∂q̇ of the module docstring on ``model`` (β in s)."""
 
     name = "material_damping"
 
@@ -88,16 +87,11 @@ class MaterialDamping(Load):
         self.beta = fem.Constant(model.robot.mesh, float(beta))
         self._state = [fem.Function(u.function_space) for u in model.unknowns]
         self._rates = [fem.Function(u.function_space) for u in model.unknowns]
-        energy = model.elastic_energy(self._state)
-        self._forms = []
-        for s, w in zip(self._state, model.tests, strict=True):
-            force = ufl.derivative(energy, s, w)
-            terms = [
-                ufl.derivative(force, q, r) for q, r in zip(self._state, self._rates, strict=True)
-            ]
-            self._forms.append(
-                ufl.algorithms.expand_derivatives(functools.reduce(operator.add, terms))
-            )
+        potential = model.strain_rate_energy(self._state, self._rates)
+        self._forms = [
+            ufl.algorithms.expand_derivatives(ufl.derivative(potential, r, w))
+            for r, w in zip(self._rates, model.tests, strict=True)
+        ]
 
     def work(self, model: Model, state: Sequence[Any], rates: Sequence[Any]) -> list[ufl.Form]:
         mapping = dict(zip(self._state, state, strict=True))

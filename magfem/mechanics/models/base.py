@@ -15,6 +15,8 @@ derivatives, as lists of the same shapes.
 
 from __future__ import annotations
 
+import functools
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -45,6 +47,7 @@ __all__ = [
     "director_faces",
     "midsurface_sides",
     "nodal_metadata",
+    "rate_of",
     "sum_work",
 ]
 
@@ -228,6 +231,16 @@ class Model(ABC):
         """Strain energy at ``state`` (J; J/m for strips), a UFL form."""
 
     @abstractmethod
+    def strain_rate_energy(self, state: Sequence[Any], rates: Sequence[Any]) -> ufl.Form:
+        """½ ∫ ṡ : ℂ₀ : ṡ (J/s²; J/(s² m) for strips), a UFL form.
+
+        ṡ = Ds(q)[q̇] are the rates of the model's objective strain measures s
+        (zero for a rigid motion at any state) and ℂ₀ its small-strain
+        stiffness: the dissipation potential of material damping
+        (:mod:`magfem.mechanics.loads.damping`).
+        """
+
+    @abstractmethod
     def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
         """Hard-magnetic energy −(F M̃)·B_a(x) per unit of the mesh's measure (UFL)."""
 
@@ -401,3 +414,9 @@ def director_faces(
             )
         )
     return out
+
+
+def rate_of(expr: Any, state: Sequence[Any], rates: Sequence[Any]) -> Any:
+    """D expr(q)[q̇]: the rate of a UFL expression of the state Functions ``state`` (UFL)."""
+    terms = [ufl.derivative(expr, q, r) for q, r in zip(state, rates, strict=True)]
+    return ufl.algorithms.expand_derivatives(functools.reduce(operator.add, terms))

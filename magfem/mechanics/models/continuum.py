@@ -39,6 +39,7 @@ from magfem.mechanics.models.base import (
     Names,
     State,
     nodal_metadata,
+    rate_of,
     time_integrator,
 )
 from magfem.mechanics.models.pressure import MIXED_CELLS, MixedPressure
@@ -136,6 +137,22 @@ class ContinuumModel(Model):
             self.isochoric_energy(state)
             + material.volumetric_energy(F, self.K, self.kinematics) * self.dx_vol
         )
+
+    def strain_rate_energy(self, state: Sequence[Any], rates: Sequence[Any]) -> ufl.Form:
+        """½ ∫ Ė : ℂ₀ : Ė with Ė the rate of the Green strain E = (FᵀF − I)/2.
+
+        ℂ₀ is the small-strain law of :meth:`elastic_energy`: μ |dev Ė|² + K/2 (tr Ė)²
+        per volume (dev and tr in 3D; plane strain has no out-of-plane strain), and
+        for incompressible plane stress (Ė₃₃ = −tr Ė) μ (Ė : Ė + (tr Ė)²).
+        """
+        F = material.deformation_gradient(state[0])
+        E = 0.5 * (F.T * F - ufl.Identity(ufl.shape(F)[0]))
+        Ed = rate_of(E, state[:1], rates[:1])
+        tr = ufl.tr(Ed)
+        if self.kinematics == "plane_stress":
+            return self.mu * (ufl.inner(Ed, Ed) + tr**2) * self.dx
+        deviatoric = self.mu * (ufl.inner(Ed, Ed) - tr**2 / 3.0) * self.dx
+        return deviatoric + 0.5 * self.K * tr**2 * self.dx_vol
 
     def isochoric_energy(self, state: Sequence[Any]) -> ufl.Form:
         """The elastic energy without its volumetric part (J; J/m for strips)."""

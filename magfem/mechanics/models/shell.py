@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -88,6 +89,7 @@ from magfem.mechanics.models.base import (
     director_faces,
     midsurface_sides,
     nodal_metadata,
+    rate_of,
 )
 from magfem.mechanics.models.supports import (
     clamped_entities,
@@ -182,8 +184,17 @@ class ShellKinematics:
         return Fs.T * Fs
 
 
+@dataclass(frozen=True)
+class StrainRates:
+    """Rates ė (2×2), k̇ (2×2, 1/(m s)) and γ̇ (2) of the shell's strains (UFL)."""
+
+    membrane: Any
+    bending: Any
+    shear: Any
+
+
 def shell_energy_density(
-    kin: ShellKinematics, shear_modulus: Any, poisson: float, thickness: float
+    kin: ShellKinematics | StrainRates, shear_modulus: Any, poisson: float, thickness: float
 ) -> Any:
     """Elastic energy per reference area (J/m²) of the module's constitutive law."""
     mu, t = shear_modulus, thickness
@@ -346,6 +357,16 @@ class ShellModel(Model):
     def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
         kin = ShellKinematics(state[0], state[1], self.frame, self.pose)
         return shell_energy_density(kin, self.mu, self.poisson, self.thickness) * self.dx
+
+    def strain_rate_energy(self, state: Sequence[Any], rates: Sequence[Any]) -> ufl.Form:
+        """½ ∫ of the shell's energy density (quadratic in its strains) at their rates."""
+        kin = ShellKinematics(state[0], state[1], self.frame, self.pose)
+        rates_kin = StrainRates(
+            rate_of(kin.membrane, state, rates),
+            rate_of(kin.bending, state, rates),
+            rate_of(kin.shear, state, rates),
+        )
+        return shell_energy_density(rates_kin, self.mu, self.poisson, self.thickness) * self.dx
 
     def magnetic_energy_density(self, state: Sequence[Any], flux: FluxDensity) -> Any:
         kin = ShellKinematics(state[0], state[1], self.frame, self.pose)
