@@ -271,32 +271,23 @@ class RodModel(Model):
 
     def elastic_energy(self, state: Sequence[Any]) -> ufl.Form:
         kin = RodKinematics(state[0], state[1], self.frame)
-        G, K = kin.strain, kin.curvature
-        t, b, E, mu = self.thickness, self.width, self.young, self.mu
-        A = self.area
-        stretch = 0.5 * E * A * G[0] ** 2 + 0.5 * SHEAR_CORRECTION * mu * A * (
-            G[1] ** 2 + G[2] ** 2
-        )
-        bend = (
-            0.5 * mu * torsion_constant(b, t) * K[0] ** 2
-            + bending_energy(K[1], b, t, E, self.poisson, self.bending)
-            + 0.5 * E * t * b**3 / 12.0 * K[2] ** 2
-        )
-        s = self.stiffening
-        return s * stretch * self.dx_reduced + s * bend * self.dx
+        return self._section_energy(kin.strain, kin.curvature, self.bending)
 
     def strain_rate_energy(self, state: Sequence[Any], rates: Sequence[Any]) -> ufl.Form:
         """½ ∫ of :meth:`elastic_energy`'s density at the rates of the strain and curvature,
         with the anticlastic law's small-curvature (beam) bending stiffness."""
         kin = RodKinematics(state[0], state[1], self.frame)
+        law = "beam" if self.bending == "anticlastic" else self.bending
         G = base.rate_of(kin.strain, state, rates)
-        K = base.rate_of(kin.curvature, state, rates)
+        return self._section_energy(G, base.rate_of(kin.curvature, state, rates), law)
+
+    def _section_energy(self, G: Any, K: Any, law: str) -> ufl.Form:
+        """The section's energy (J) at strain G and curvature K with bending ``law``."""
         t, b, E, mu = self.thickness, self.width, self.young, self.mu
         A = self.area
         stretch = 0.5 * E * A * G[0] ** 2 + 0.5 * SHEAR_CORRECTION * mu * A * (
             G[1] ** 2 + G[2] ** 2
         )
-        law = "beam" if self.bending == "anticlastic" else self.bending
         bend = (
             0.5 * mu * torsion_constant(b, t) * K[0] ** 2
             + bending_energy(K[1], b, t, E, self.poisson, law)
