@@ -22,16 +22,17 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
     studies = load_studies()
     study = next(s for s in studies if s.ident == "two-arm-20hz")
     fprint = fingerprint(Path(study.case), study.sets)
-    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
-    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
-    point.mkdir(parents=True)
-    summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
-    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
-    (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
+    points = build_points([parse_param(p) for p in study.params], fprint)  # two mesh sizes
+    for pt in points:
+        point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
+        point.mkdir(parents=True)
+        summary = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
+        record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
     page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
-    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in page
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 2/2 | 6 |" in page
     # pi/2 rad -> 90.0 deg; 1000 rad/s -> 57.30 deg/ms
-    assert "| 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
+    assert "| 0.1mm | 50ms | done | 3 | 90.0° | – | 57.30 | – |" in page
     # 80 µm, 2 mT, 0.1 mm strip: ℓ = 80 µm √(2.990 μ/(12 M B)) = 0.863 mm, 8.6 elements
     assert "magnetoelastic length 0.863 mm at 2 mT: 8.6 element(s) per length" in page
     assert page.count("**Prediction missing:** not run yet") == len(studies) - 1
@@ -126,14 +127,14 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     (docs / "scenes.md").write_text(page)
     study = next(s for s in load_studies() if s.ident == "two-arm-20hz")
     fprint = fingerprint(Path(study.case), study.sets)
-    (pt,) = build_points([parse_param(p) for p in study.params], fprint)
-    point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
-    point.mkdir(parents=True)
-    record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
-    (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+    for pt in build_points([parse_param(p) for p in study.params], fprint):
+        point = tmp_path / "out" / "two-arm-20hz" / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
     again = build_report(tmp_path / "out", only=["two-arm-20hz"], docs=docs, echo=None)
     text = again.read_text()
-    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 1/1 | 3 |" in text
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 2/2 | 6 |" in text
     assert "| [five-arm](#five-arm) | predicted | 1/1 | 7 |" in text
     assert "## five-arm\n\nA row from elsewhere.\n" in text
     assert text.count("\n## ") == page.count("\n## ")  # every scene once, in its place
