@@ -158,6 +158,25 @@ def test_size_across_rejected():
 
 
 @pytest.mark.slow  # over 0.3 s: not in the fast tier
+def test_a_size_gmsh_cannot_mesh_in_one_cell_type_names_the_key(comm):
+    """The five-arm star (cases/five_arm.toml) as a solid at 0.7 mm: gmsh's recombination
+    leaves prisms among the hexahedra (it does at 0.6-0.75 mm, not at 0.5 or 0.8 mm). The
+    user is told which key to change, as for any other bad input, on every rank."""
+    star = robot(
+        "star",
+        arms=5,
+        arm_length=5e-3,
+        arm_width=1.5e-3,
+        hub_radius=1.5e-3,
+        clamp_radius=1e-3,
+        thickness=8e-5,
+    )
+    with pytest.raises(CaseError, match="Prism") as err:
+        create_robot_mesh(star, meshspec(model="solid", size=7e-4), comm)
+    assert err.value.key == "mesh.size"
+
+
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
 def test_curved_outline_accuracy(comm):
     """Second-order geometry captures the star hub; order-1 flower area converges at rate 2."""
     star = robot("star")

@@ -23,7 +23,17 @@ __all__ = ["GmshError", "build_mesh"]
 
 
 class GmshError(RuntimeError):
-    """gmsh failed to build or mesh a model (message from rank 0)."""
+    """gmsh failed to build or mesh a model (message from rank 0).
+
+    Attributes:
+        cause: the class name of the builder's exception (e.g. ``MeshQualityError``).
+        detail: its message.
+    """
+
+    def __init__(self, message: str, cause: str = "", detail: str = "") -> None:
+        super().__init__(message)
+        self.cause = cause
+        self.detail = detail
 
 
 def build_mesh(
@@ -52,7 +62,7 @@ def build_mesh(
     Raises:
         GmshError: on every rank, if the builder or gmsh failed on rank 0.
     """
-    error: str | None = None
+    error: tuple[str, str] | None = None
     if comm.rank == 0:
         initialized_here = not gmsh.isInitialized()
         if initialized_here:
@@ -70,12 +80,13 @@ def build_mesh(
                 Path(msh_path).parent.mkdir(parents=True, exist_ok=True)
                 gmsh.write(str(msh_path))
         except Exception as err:  # reported collectively below
-            error = f"{type(err).__name__}: {err}"
+            error = (type(err).__name__, str(err))
     error = comm.bcast(error, root=0)
     if error is not None:
         if comm.rank == 0:
             gmsh.model.remove()
-        raise GmshError(f"building '{name}' failed: {error}")
+        cause, detail = error
+        raise GmshError(f"building '{name}' failed: {cause}: {detail}", cause, detail)
     # ghost cells across shared facets: interior-facet integrals (dS) need them
     partitioner = dmesh.create_cell_partitioner(
         graph.partitioner(), dmesh.GhostMode.shared_facet, 2

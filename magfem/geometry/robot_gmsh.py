@@ -292,7 +292,10 @@ def _check_cells(gmsh: Any, spec: MeshSpec, tdim: int, info: dict[str, Any]) -> 
     names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
     want = _EXPECTED_TYPES[(spec.model, spec.element)]
     if len(types) != 1 or not names[0].startswith(want):
-        raise MeshQualityError(f"expected only {want} cells, gmsh made {names}")
+        raise MeshQualityError(
+            f"gmsh made {names} cells where only {want} are meshed (its recombination left "
+            "other cells at this size); a slightly smaller or larger mesh.size usually works"
+        )
     _, tags, _ = gmsh.model.mesh.getElements(dim=tdim)
     quality = gmsh.model.mesh.getElementQualities(tags[0], QUALITY_METRIC)
     info["num_cells"] = len(tags[0])

@@ -33,7 +33,7 @@ from mpi4py import MPI
 
 from magfem.config import CaseError
 from magfem.geometry.beam import BeamOutline
-from magfem.geometry.gmshio import build_mesh
+from magfem.geometry.gmshio import GmshError, build_mesh
 from magfem.geometry.outline import Outline
 from magfem.geometry.robot_gmsh import (
     MIN_QUALITY,
@@ -262,9 +262,10 @@ def create_robot_mesh(
 
     Raises:
         CaseError: ``mesh`` incompatible with ``robot`` (size, strip model, a bonded
-            patch too short for the shell's clamp inset).
-        GmshError: gmsh failed, made mixed cell types or elements of
-            quality below :data:`MIN_QUALITY` (message from rank 0).
+            patch too short for the shell's clamp inset), or gmsh made mixed cell
+            types or elements of quality below :data:`MIN_QUALITY` at this size
+            (key ``mesh.size``).
+        GmshError: gmsh failed otherwise (message from rank 0).
     """
     check_mesh_for_robot(robot, mesh)
     outline = outline_of(robot)
@@ -272,13 +273,18 @@ def create_robot_mesh(
         return _create_rod_mesh(robot, mesh, comm, outline, msh_path)
     meshed, gmsh_outline = _meshed_outlines(robot, mesh, outline)
     info: dict[str, Any] = {}
-    data = build_mesh(
-        robot_builder(robot, mesh, gmsh_outline, info),
-        comm,
-        gdim=2 if mesh.model == "strip" else 3,
-        name=f"robot_{robot.shape}",
-        msh_path=msh_path,
-    )
+    try:
+        data = build_mesh(
+            robot_builder(robot, mesh, gmsh_outline, info),
+            comm,
+            gdim=2 if mesh.model == "strip" else 3,
+            name=f"robot_{robot.shape}",
+            msh_path=msh_path,
+        )
+    except GmshError as err:
+        if err.cause == MeshQualityError.__name__:  # the size is the user's to change
+            raise CaseError("mesh.size", f"{mesh.size * 1e3:g} mm", err.detail) from None
+        raise
     info = comm.bcast(info, root=0)
     groups = {name: (int(pg.dim), int(pg.tag)) for name, pg in data.physical_groups.items()}
     facet_tags = data.facet_tags
