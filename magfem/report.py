@@ -419,14 +419,14 @@ _SCALES = {"m": (1e3, "mm"), "rad": (180.0 / math.pi, "°"), "m/s": (1e3, "mm/s"
 
 
 def _history_figure(
-    columns: Sequence[str], done: list[dict[str, Any]], sweep_dir: Path, dest: Path
+    columns: Sequence[str], records: list[dict[str, Any]], sweep_dir: Path, dest: Path
 ) -> Path | None:
     """One panel per history column against time (ms), a line per run labelled by
     its parameters; columns a run's history lacks are left out (None if all are). Lengths,
     angles and speeds whose unit the history names are shown in mm, ° and mm/s; a column
     without a unit in the history's header in SI."""
     runs = []
-    for rec in done:
+    for rec in records:
         history = sweep_dir / "points" / str(rec["point"]) / "history.csv"
         if history.is_file():
             data, units = read_history(history)

@@ -95,17 +95,11 @@ def closed_form_field(spec: SourceSpec, name: str) -> SourceField:
         center = np.array(spec.center)
         return CoilField(center, spec.unit_axis, *section, current, windings, name=name)
     if isinstance(spec, RacetrackCoilSpec):
-        r1 = spec.inner_radius
+        cx, cy, r1, r2, height = spec.winding
+        ampere_turns = spec.turns * spec.current
+        center = np.array(spec.center)
         return RacetrackCoilField(
-            np.array(spec.center),
-            spec.unit_axis,
-            spec.half_sides,
-            r1,
-            r1 + spec.thickness,
-            spec.length,
-            spec.turns * spec.current,
-            spec.roll,
-            name=name,
+            center, spec.unit_axis, (cx, cy), r1, r2, height, ampere_turns, spec.roll, name=name
         )
     if isinstance(spec, CylinderMagnetSpec):
         axis, m = spec.unit_axis, spec.remanence
@@ -190,8 +184,10 @@ def build_terms(
 
 
 def _waveform(spec: SourceSpec, i: int) -> Waveform:
-    nominal = coil_current(spec) if isinstance(spec, CoilSpec) else None
-    if isinstance(spec, RacetrackCoilSpec):
+    nominal = None
+    if isinstance(spec, CoilSpec):
+        nominal = coil_current(spec)
+    elif isinstance(spec, RacetrackCoilSpec):
         nominal = spec.current
     return build_waveform(
         spec.waveform, nominal_current=nominal, key=f"field.sources[{i}].waveform"

@@ -367,6 +367,13 @@ class RacetrackCoilSpec(_PlacedSpec):
             self.inner_size[1] / 2 - self.inner_radius,
         )
 
+    @property
+    def winding(self) -> tuple[float, float, float, float, float]:
+        """(cx, cy, r1, r2, height) (m): the spine's half-sides, the winding's offsets from
+        it and its length, the arguments of :mod:`magfem.field.racetrack`."""
+        r1 = self.inner_radius
+        return (*self.half_sides, r1, r1 + self.thickness, self.length)
+
 
 @dataclass(frozen=True, kw_only=True)
 class CylinderMagnetSpec(_PlacedSpec):
@@ -435,9 +442,7 @@ def inside_source(spec: SourceSpec, points: np.ndarray) -> np.ndarray:
         return inside_winding(spec, pts)
     if isinstance(spec, RacetrackCoilSpec):
         loc = (pts - np.asarray(spec.center)) @ frame(spec.unit_axis, spec.roll)
-        r1 = spec.inner_radius
-        d = racetrack_distance(*spec.half_sides, r1, r1 + spec.thickness, spec.length, loc)
-        return d <= 0.0
+        return racetrack_distance(*spec.winding, loc) <= 0.0
     if isinstance(spec, CylinderMagnetSpec):
         d = pts - np.asarray(spec.center)
         z = d @ spec.unit_axis
