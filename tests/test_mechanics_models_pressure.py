@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 
 from magfem.pipeline import build_simulation
 from verification.setups import switch_off_case
@@ -37,15 +38,28 @@ def test_mixed_solution_solves_the_displacement_formulation(comm, model):
     assert pressure is not None and pressure.points == 2
     V = sim.model.u.function_space
     owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+    P = pressure.p.function_space
+    p_owned = P.dofmap.index_map.size_local * P.dofmap.index_map_bs
     first: list[float] = []
     solver.snes.setMonitor(lambda snes, it, norm: first.append(norm) if it == 0 else None)
     for _ in range(36):
         first.clear()
         sim.update_loads(integ.begin(dt), "right", integ.u0)
-        pressure.guess(solver.residual_blocks)
+        # R_p is linear in p: it vanishes at p = K R_p(0) / (R_p(0) − R_p(K)), entry by entry.
+        # The guess (K (J − 1) interpolated at p's nodes) is that p to rounding: J − 1 to a few
+        # 1e-16, times K (measured ≤ 1.2e-14 K); bound 1e-12 K. With p's nodes off the
+        # quadrature points (equispaced) it misses by up to 6e-3 K.
+        K = float(pressure.K.value)
+        pressure.p.x.array[:] = 0.0
+        r0 = solver.residual_blocks()[-1][:p_owned]
+        pressure.p.x.array[:] = K
+        r_K = solver.residual_blocks()[-1][:p_owned]
+        pressure.guess()
+        miss = np.abs(pressure.p.x.array[:p_owned] - K * r0 / (r0 - r_K))
+        assert comm.allreduce(float(miss.max(initial=0.0)), op=MPI.MAX) <= 1e-12 * K
         report = solver.solve()
         assert report.converged, report.reason_name
-        pressure.guess(solver.residual_blocks)
+        pressure.guess()
         r = solver.residual_blocks()[0][:owned]
         norm = np.sqrt(comm.allreduce(float(r @ r)))
         assert norm < 1e-9 * first[0], (norm, first[0])

@@ -277,7 +277,7 @@ def test_step_jacobian_matches_central_differences(comm, model):
     # Newton's unknowns: u, and the mixed pressure p (set from u as before a solve)
     unknowns = sim.problem.unknowns
     if sim.problem.pressure is not None:
-        sim.problem.pressure.guess(sim.solver.residual_blocks)
+        sim.problem.pressure.guess()
     problem = sim.solver.problem
     x0 = problem.x.duplicate()
     fem_petsc.assign(unknowns if len(unknowns) > 1 else u, x0)

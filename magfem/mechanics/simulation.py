@@ -202,7 +202,7 @@ class Simulation:
         for contact in self.problem.contacts:
             contact.before_solve()
         if self.problem.pressure is not None:
-            self.problem.pressure.guess(self.solver.residual_blocks)
+            self.problem.pressure.guess()
 
     def settle(self, *, smallest: float = 1.0 / 1024) -> int:
         """Quasi-static: solve the equilibrium at t₀ by load continuation of the constant loads.

@@ -30,7 +30,9 @@ strips): a pressure error δp acts on a cell's nodes as δp × (cell volume)/t.
 
 p carries no state between steps: before each Newton solve :meth:`guess`
 sets p = K (J − 1) of the predictor, so the first residual and the first
-Newton update are the displacement formulation's.
+Newton update are the displacement formulation's. As p's nodes are the
+volumetric quadrature points, that is an interpolation of K (J − 1) at each
+state (one compiled expression, evaluated cell by cell: no assembly).
 """
 
 from __future__ import annotations
@@ -40,14 +42,12 @@ from typing import Any
 
 import basix
 import basix.ufl
-import numpy as np
 import ufl
 from dolfinx import fem
 
-__all__ = ["MIXED_CELLS", "MixedPressure"]
+from magfem.parallel import JIT_WAIT
 
-_HUGE = 2.0**100
-"""Pa: a pressure beside which every K (J − 1) vanishes in floating point."""
+__all__ = ["MIXED_CELLS", "MixedPressure"]
 
 MIXED_CELLS = ("quadrilateral", "hexahedron")
 """Cells whose reduced Gauss rule is the node set of a discontinuous Lagrange element."""
@@ -95,7 +95,7 @@ class MixedPressure:
         self.jacobian = jacobian
         self.scale = 1.0 / thickness
         self.other_energy = other_energy
-        self._weights: np.ndarray | None = None  # −∂R_p/∂p per dof (its diagonal)
+        self._guess: fem.Expression | None = None  # K (J − 1) per state at p's nodes
 
     def residuals(
         self, generic: fem.Function, test: Any, states: Sequence[tuple[float, Any]]
@@ -104,6 +104,7 @@ class MixedPressure:
 
         ``generic`` is the displacement the derivative is taken by, then replaced
         by each state (as the potential's forces in :mod:`magfem.mechanics.problem`).
+        Also compiles K (J − 1) of the states for :meth:`guess`.
         """
         if len(states) != self.points:
             raise ValueError(f"{len(states)} states for a pressure of {self.points} components")
@@ -118,21 +119,19 @@ class MixedPressure:
             eq = self.scale * (self.K * (self.jacobian(u) - 1.0) - p[k]) * q[k] * self.dx
             work = term if work is None else work + term
             constraint = eq if constraint is None else constraint + eq
+        values = ufl.as_vector([self.K * (self.jacobian(u) - 1.0) for _, u in states])
+        points = self.p.function_space.element.interpolation_points
+        self._guess = fem.Expression(values, points, jit_options=JIT_WAIT)
         return work, constraint
 
-    def guess(self, residual_blocks: Callable[[], list[np.ndarray]]) -> None:
+    def guess(self) -> None:
         """p = K (J − 1) at the quadrature points of the current displacement iterate.
 
-        ``residual_blocks`` evaluates the step residual at the current iterate
-        and returns each block's local array (owned and ghost entries; p's
-        block last): R_p at p = 0 is then K (J − 1) times the diagonal weights
-        −∂R_p/∂p, which an evaluation at a huge p gives once. Collective.
+        Interpolates K (J − 1) of each state of the last :meth:`residuals` into
+        p's space, whose nodes are the quadrature points of ``measure``: the p
+        at which R_p vanishes. Collective (p's ghost values are updated).
         """
-        p = self.p.x.array
-        if self._weights is None:
-            # at p = 2¹⁰⁰, K (J − 1) − p rounds to −p: the weights do not depend on the state
-            # (a resumed run computes them at another state and must get the same bits)
-            p[:] = _HUGE
-            self._weights = -residual_blocks()[-1] / _HUGE
-        p[:] = 0.0
-        p[:] = residual_blocks()[-1] / self._weights
+        if self._guess is None:
+            raise RuntimeError("MixedPressure.guess before residuals: no states to evaluate")
+        self.p.interpolate(self._guess)
+        self.p.x.scatter_forward()
