@@ -76,16 +76,23 @@ def _case_notes(path: Path) -> dict[str, list[str]]:
     return notes
 
 
+def _shown(key: str) -> tuple[float, str, str]:
+    """How a summary scalar is shown: the factor from SI, the format and the unit written
+    after a difference (the tables name it in the column header, except for degrees)."""
+    if "bending_speed" in key:
+        return math.degrees(1.0) / 1e3, ".2f", " °/ms"  # rad/s -> °/ms
+    if "active_length" in key:
+        return 1e3, ".2f", " mm"
+    if "angle" in key:
+        return math.degrees(1.0), ".1f", "°"
+    return 1.0, ".3g", ""
+
+
 def _fmt(key: str, value: Any) -> str:
     if not isinstance(value, int | float) or (isinstance(value, float) and math.isnan(value)):
         return "–"
-    if "bending_speed" in key:
-        return f"{math.degrees(value) / 1e3:.2f}"
-    if "active_length" in key:
-        return f"{1e3 * value:.2f}"
-    if "angle" in key:
-        return f"{math.degrees(value):.1f}°"
-    return f"{value:.3g}"
+    factor, spec, unit = _shown(key)
+    return f"{factor * value:{spec}}" + (unit if unit == "°" else "")
 
 
 def _unit(key: str) -> str:
@@ -366,14 +373,16 @@ def _table_lines(study: Study, records: list[dict[str, Any]]) -> list[str]:
 
 
 def _difference_lines(study: Study, first: dict[str, Any], last: dict[str, Any]) -> list[str]:
-    """The ``compare`` scalars of the last run against the first (absolute and relative)."""
+    """The ``compare`` scalars of the last run against the first (absolute, in the table's
+    unit, and relative)."""
     label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
     parts = []
     for key in study.compare:
         a, b = first["summary"].get(key), last["summary"].get(key)
         if isinstance(a, float) and isinstance(b, float) and a != 0.0:
-            diff = f"{math.degrees(b - a):+.1f}°" if "angle" in key else f"{b - a:+.3g}"
-            parts.append(f"{key} {diff} ({100 * (b - a) / abs(a):+.1f} %)")
+            factor, spec, unit = _shown(key)
+            change = f"{factor * (b - a):+{spec}}{unit}"
+            parts.append(f"{key} {change} ({100 * (b - a) / abs(a):+.1f} %)")
     return [f"**Difference** ({label}): " + "; ".join(parts) + ".", ""]
 
 

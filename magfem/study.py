@@ -69,7 +69,7 @@ class Study:
     compare: tuple[str, ...] = option(
         (),
         doc="summary scalars whose difference between the last and the first run is stated "
-        "under the table",
+        "under the table, in the table's units",
     )
     figure: tuple[str, ...] = option(
         (),

@@ -40,6 +40,35 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
         build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
 
 
+def _write_points(out: Path, study, summaries: list[dict[str, float]]) -> None:
+    """Finished points of ``study`` under ``out`` with the given summaries, in point order."""
+    fprint = fingerprint(Path(study.case), study.sets)
+    points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
+    assert len(points) == len(summaries)
+    for pt, summary in zip(points, summaries, strict=True):
+        point = out / study.ident / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
+
+
+def test_report_difference_lines_use_the_units_of_the_table(tmp_path, repo, monkeypatch):
+    """The difference between the two resolutions of two-arm-20hz is written in the unit of
+    the table's column: the bending speed in °/ms, not rad/s."""
+    monkeypatch.chdir(repo)
+    study = next(s for s in load_studies() if s.ident == "two-arm-20hz")
+    coarse = {"max_angle_arm_right": math.pi / 2, "bending_speed_arm_right": 1000.0}
+    fine = {"max_angle_arm_right": math.pi / 2 + 0.01, "bending_speed_arm_right": 1100.0}
+    _write_points(tmp_path / "out", study, [coarse, fine])
+    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
+    # 1000 and 1100 rad/s are 57.30 and 63.03 °/ms in the table: the difference 100 rad/s is
+    # 5.73 °/ms; 0.01 rad is 0.57°, 0.6 % of 90°
+    assert "| 0.05mm | 50ms | done | 3 | 90.6° | – | 63.03 | – |" in page
+    line = next(x for x in page.splitlines() if x.startswith("**Difference** (0.05mm, 50ms"))
+    assert "max_angle_arm_right +0.6° (+0.6 %)" in line
+    assert "bending_speed_arm_right +5.73 °/ms (+10.0 %)" in line
+
+
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
     """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
     monkeypatch.chdir(repo)
