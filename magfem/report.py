@@ -242,7 +242,9 @@ def _records(
     if records:  # the table and plot of the refreshed summaries
         names = [parse_param(p)[0] for p in study.params]
         write_summary(records, names, sweep_dir)
-        plot_sweep(records, names, sweep_dir / "sweep.png", paired=study.paired)
+        plot_sweep(
+            records, names, sweep_dir / "sweep.png", paired=study.paired, by=study.compare_by
+        )
     return records, ""
 
 
@@ -300,8 +302,9 @@ def _scene_section(
     if reason:
         out += [f"**Prediction missing:** {reason}.", ""]
     out += _table_lines(study, records)
-    if study.compare and len(records) > 1 and records[0] in done and records[-1] in done:
-        out += _difference_lines(study, records[0], records[-1])
+    if study.compare:
+        for first, last in _compared(study, records):
+            out += _difference_lines(study, first, last)
     if failed:
         out += _failed_lines(failed, sweep_dir)
     fig = _figure(study, done, failed, sweep_dir, figures)
@@ -346,7 +349,8 @@ def _table_lines(study: Study, records: list[dict[str, Any]]) -> list[str]:
     """One row per run: its parameters, status, wall time and summary scalars."""
     if not records:
         return []
-    names = list(records[0]["params"])
+    given = [parse_param(p)[0] for p in study.params]  # the study's order, not the record's
+    names = [n for n in given if n in records[0]["params"]] or list(records[0]["params"])
     arms = sorted(
         {
             k
@@ -372,10 +376,30 @@ def _table_lines(study: Study, records: list[dict[str, Any]]) -> list[str]:
     return [*out, ""]
 
 
+def _compared(study: Study, records: list[dict[str, Any]]) -> list[tuple[dict, dict]]:
+    """The (first, last) runs whose ``compare`` scalars are stated, both finished: the
+    study's first and last run, or with ``compare_by`` those of each value of the other
+    parameters."""
+    groups: dict[tuple[tuple[str, str], ...], list[dict[str, Any]]] = {}
+    for rec in records:
+        if not study.compare_by:
+            key: tuple[tuple[str, str], ...] = ()
+        else:
+            key = tuple((n, str(v)) for n, v in rec["params"].items() if n != study.compare_by)
+        groups.setdefault(key, []).append(rec)
+    pairs = [(g[0], g[-1]) for g in groups.values() if len(g) > 1]
+    return [(a, b) for a, b in pairs if a.get("status") == b.get("status") == "done"]
+
+
 def _difference_lines(study: Study, first: dict[str, Any], last: dict[str, Any]) -> list[str]:
     """The ``compare`` scalars of the last run against the first (absolute, in the table's
     unit, and relative)."""
-    label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
+    if study.compare_by:
+        by = study.compare_by
+        rest = ", ".join(str(v) for n, v in first["params"].items() if n != by)
+        label = f"{rest}: {by} {last['params'][by]} vs {first['params'][by]}"
+    else:
+        label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
     parts = []
     for key in study.compare:
         a, b = first["summary"].get(key), last["summary"].get(key)

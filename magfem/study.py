@@ -71,6 +71,12 @@ class Study:
         doc="summary scalars whose difference between the last and the first run is stated "
         "under the table, in the table's units",
     )
+    compare_by: str = option(
+        "",
+        doc="with compare: the parameter (e.g. mesh.size) whose last run is compared with its "
+        "first for each value of the other parameters, one line each, and the sweep plot "
+        "draws a line per its value; empty: the last run of the study against the first",
+    )
     figure: tuple[str, ...] = option(
         (),
         doc="history columns plotted against time, one panel each and a line per run (default: "
@@ -111,6 +117,11 @@ class Study:
             build_points(parsed, "", paired=self.paired)
         except CaseError as err:
             raise CaseError("params", err.value, err.problem) from None
+        names = [name for name, _ in parsed]
+        if self.compare_by and self.compare_by not in names:
+            raise CaseError(
+                "compare_by", self.compare_by, "must name one of params: " + ", ".join(names)
+            )
         for i, text in enumerate(self.sets):
             if not _SET.match(text):
                 raise CaseError(f"sets[{i}]", text, "expected KEY=VALUE, e.g. time.end=20ms")

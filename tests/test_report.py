@@ -69,6 +69,31 @@ def test_report_difference_lines_use_the_units_of_the_table(tmp_path, repo, monk
     assert "bending_speed_arm_right +5.73 °/ms (+10.0 %)" in line
 
 
+def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, repo, monkeypatch):
+    """``compare_by``: one difference line per value of the other parameters, between that
+    value's first and last run (two mesh sizes paired with two end times)."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    (folder / "probe.toml").write_text(
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\npaired = true\n'
+        'params = ["time.end=10ms,10ms,20ms,20ms", "mesh.size=0.1mm,0.05mm,0.1mm,0.05mm"]\n'
+        'compare = ["max_angle_arm"]\ncompare_by = "mesh.size"\n',
+        encoding="utf-8",
+    )
+    study = load_studies(folder)[0]
+    angles = [1.0, 1.0 + math.radians(2.0), 2.0, 2.0 - math.radians(0.5)]
+    _write_points(tmp_path / "out", study, [{"max_angle_arm": a} for a in angles])
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
+    # 2° of 57.3° (1 rad) is 3.5 %; −0.5° of 114.6° is −0.4 %
+    assert lines == [
+        "**Difference** (10ms: mesh.size 0.05mm vs 0.1mm): max_angle_arm +2.0° (+3.5 %).",
+        "**Difference** (20ms: mesh.size 0.05mm vs 0.1mm): max_angle_arm -0.5° (-0.4 %).",
+    ]
+
+
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
     """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
     monkeypatch.chdir(repo)

@@ -100,10 +100,16 @@ def write_summary(records: list[dict[str, Any]], names: list[str], out: Path) ->
 
 
 def plot_sweep(
-    records: list[dict[str, Any]], names: list[str], path: Path, *, paired: bool = False
+    records: list[dict[str, Any]],
+    names: list[str],
+    path: Path,
+    *,
+    paired: bool = False,
+    by: str = "",
 ) -> Path | None:
     """Max angle over one and two periods (deg) against the first parameter (PNG): one
-    line per combination of the other parameters, or a single line when ``paired``."""
+    line per combination of the other parameters, or when ``paired`` a single line, or one
+    per value of the parameter ``by`` (e.g. two mesh sizes paired with the frequencies)."""
     done = [r for r in records if r.get("summary")]
     keys = sorted(
         {k for r in done for k in r["summary"] if k.startswith("max_angle_")},
@@ -113,6 +119,8 @@ def plot_sweep(
     if not done or not keys:
         return None
     x_name, others = names[0], ([] if paired else names[1:])
+    if by and by != x_name and by not in others:
+        others = [*others, by]
     groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for r in done:
         groups.setdefault(tuple(r["params"][n] for n in others), []).append(r)
