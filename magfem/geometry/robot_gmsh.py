@@ -18,6 +18,18 @@
    the ``size_across`` stretch are applied to the mesh nodes, and the cell
    type and element quality are checked.
 
+Full-quad recombination (gmsh's blossom full-quad, Remacle et al., Int. J.
+Numer. Meth. Eng. 89, 1102 (2012)) meshes each surface at twice the size,
+recombines, splits every quadrilateral into four and every triangle into
+three, and moves the new nodes of curved curves back onto the curve. Where
+a curve is resolved by few segments (a circle of 10 segments is a pentagon
+on the coarse mesh) next to a band narrower than the coarse elements (the
+0.5 mm ring between a star's bonded disk and its hub), that move inverts
+elements, and gmsh splits the inverted quadrilaterals into triangles. When
+the first mesh keeps triangles, the mesh is made again with every curved
+outline curve given at least :data:`ARC_SEGMENTS` segments per full turn
+(even counts); meshes the first recipe makes are left as they are.
+
 ``size_across``: :class:`StretchedOutline` scales the outline's y axis by
 size/size_across before meshing; the nodes are scaled back afterwards, so
 the elements are ``size`` long and ``size_across`` wide.
@@ -26,6 +38,7 @@ the elements are ``size`` long and ``size_across`` wide.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -37,7 +50,14 @@ from magfem.geometry.beam import BeamOutline
 from magfem.geometry.outline import Outline
 from magfem.geometry.spec import MeshSpec, RobotSpec
 
-__all__ = ["MIN_QUALITY", "QUALITY_METRIC", "MeshQualityError", "StretchedOutline", "robot_builder"]
+__all__ = [
+    "ARC_SEGMENTS",
+    "MIN_QUALITY",
+    "QUALITY_METRIC",
+    "MeshQualityError",
+    "StretchedOutline",
+    "robot_builder",
+]
 
 QUALITY_METRIC = "minSJ"
 """gmsh element quality used: minimum scaled Jacobian (1 for undistorted
@@ -45,6 +65,13 @@ boxes of any aspect ratio, <= 0 for inverted elements)."""
 
 MIN_QUALITY = 0.1
 """Meshes whose worst element has a smaller scaled Jacobian are rejected."""
+
+
+ARC_SEGMENTS = 16
+"""Segments per full turn of a curved outline curve when the first mesh keeps triangles:
+the coarse mesh of the full-quad recombination then has 8 chords per turn, whose
+sagitta is 8 % of the radius (every robot of the cases meshes into quadrilaterals
+with 16, 20 and 24, not with 12: ``benchmarks/hex_meshing.py --cases --arc-segments``)."""
 
 
 class MeshQualityError(RuntimeError):
@@ -273,6 +300,50 @@ def _mesh_options(gmsh: Any, spec: MeshSpec, plan: _Plan) -> None:
             gmsh.model.mesh.setTransfiniteCurve(c, 3)
 
 
+def _with_triangles(gmsh: Any, surfaces: list[int]) -> list[int]:
+    """The surfaces among ``surfaces`` whose mesh has triangles."""
+    out = []
+    for s in surfaces:
+        types, _, _ = gmsh.model.mesh.getElements(2, s)
+        names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
+        if any(n.startswith("Triangle") for n in names):
+            out.append(s)
+    return out
+
+
+def _resolve_arcs(gmsh: Any, curves: list[int], counts: dict[int, int]) -> None:
+    """At least :data:`ARC_SEGMENTS` segments per full turn on every curved curve.
+
+    ``counts`` are the curves' segment counts of the first mesh; a curve keeps
+    its count where that is enough, and the new counts are even (the full-quad
+    recombination halves them).
+    """
+    for c in curves:
+        lo, hi = gmsh.model.getParametrizationBounds(1, c)
+        kappa = gmsh.model.getCurvature(1, c, np.linspace(lo[0], hi[0], 5))
+        turn = gmsh.model.occ.getMass(1, c) * float(np.max(np.abs(kappa)))  # rad (arcs)
+        n = max(counts[c], math.ceil(turn * ARC_SEGMENTS / (2 * math.pi) - 1e-9))
+        n += n % 2
+        if n > counts[c]:
+            gmsh.model.mesh.setTransfiniteCurve(c, n + 1)
+
+
+def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> None:
+    """Mesh; for ``hex``, once more with curved curves resolved if triangles were left.
+
+    Sets ``info["recipe"]`` to the recipe of the mesh kept.
+    """
+    gmsh.model.mesh.generate(plan.tdim)
+    info["recipe"] = "full-quad" if spec.element == "hex" else "triangles"
+    if spec.element != "hex" or not _with_triangles(gmsh, plan.recombine):
+        return
+    counts = {c: len(gmsh.model.mesh.getElements(1, c)[1][0]) for c in plan.curves}
+    gmsh.model.mesh.clear()
+    _resolve_arcs(gmsh, plan.curves, counts)
+    gmsh.model.mesh.generate(plan.tdim)
+    info["recipe"] = f"full-quad, arcs >= {ARC_SEGMENTS} segments per turn"
+
+
 def _place_nodes(gmsh: Any, robot: RobotSpec, spec: MeshSpec, outline: Outline) -> None:
     """Add ``position`` (strip: (x, z) += (px, pz)) and undo the ``size_across`` stretch.
 
@@ -294,7 +365,8 @@ def _check_cells(gmsh: Any, spec: MeshSpec, tdim: int, info: dict[str, Any]) -> 
     if len(types) != 1 or not names[0].startswith(want):
         raise MeshQualityError(
             f"gmsh made {names} cells where only {want} are meshed (its recombination left "
-            "other cells at this size); a slightly smaller or larger mesh.size usually works"
+            f"other cells at this size, also with curved curves at >= {ARC_SEGMENTS} segments "
+            "per turn); try a slightly smaller or larger mesh.size"
         )
     _, tags, _ = gmsh.model.mesh.getElements(dim=tdim)
     quality = gmsh.model.mesh.getElementQualities(tags[0], QUALITY_METRIC)
@@ -313,9 +385,10 @@ def robot_builder(
 ) -> Callable[[Any], None]:
     """The gmsh builder of ``outline`` meshed as ``spec`` says (run on rank 0).
 
-    It fills ``info`` with ``num_cells`` and ``min_quality`` (gmsh's
-    :data:`QUALITY_METRIC`), and raises :class:`MeshQualityError` on mixed
-    cell types or elements worse than :data:`MIN_QUALITY`.
+    It fills ``info`` with ``num_cells``, ``min_quality`` (gmsh's
+    :data:`QUALITY_METRIC`) and ``recipe`` (how the quadrilaterals were
+    made), and raises :class:`MeshQualityError` on mixed cell types or
+    elements worse than :data:`MIN_QUALITY`.
     """
 
     def builder(gmsh: Any) -> None:
@@ -324,7 +397,7 @@ def robot_builder(
         _add_groups(gmsh, plan)
         _mesh_options(gmsh, spec, plan)
         _size_field(gmsh, spec, outline, plan)
-        gmsh.model.mesh.generate(plan.tdim)
+        _generate(gmsh, spec, plan, info)
         if spec.order == 2:
             gmsh.model.mesh.setOrder(2)
         _place_nodes(gmsh, robot, spec, outline)
