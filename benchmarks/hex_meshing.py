@@ -5,14 +5,15 @@ gmsh only (no dolfinx, serial): each robot is meshed as
 :func:`magfem.geometry.robot_mesh.create_robot_mesh`. Prints per mesh the
 cell count, the worst scaled Jacobian (``minSJ``, the check of magfem) and
 the worst signed inverse condition number (``minSICN``), and the recipe:
-``full-quad`` (gmsh's blossom full-quad, the first recipe) or the retry with
-curved curves at >= ``ARC_SEGMENTS`` segments per turn, used only where the
-first recipe leaves triangles (docs/geometry.md, "Hexahedra"). From the
-repository root (~30 s):
+``full-quad`` (gmsh's blossom full-quad, the first recipe) or the retries,
+used only where it fails: odd curve counts made even, curved curves at >=
+``ARC_SEGMENTS`` segments per turn (docs/geometry.md, "Hexahedra"). From
+the repository root (a few seconds each):
 
     .venv/bin/python -m benchmarks.hex_meshing           # five-arm star 0.30-1.50 mm
     .venv/bin/python -m benchmarks.hex_meshing --cases   # every solid/surface case robot
     .venv/bin/python -m benchmarks.hex_meshing --cases --arc-segments 12   # another retry
+    .venv/bin/python -m benchmarks.hex_meshing --cases --tip-size 0.25     # tip refinement
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ def mesh_once(robot: RobotSpec, spec: MeshSpec) -> dict[str, Any]:
 def cell(info: dict[str, Any]) -> str:
     if "error" in info:
         return "FAILED " + info["error"][:60]
-    retry = "" if info["recipe"] == "full-quad" else "  (retry: " + info["recipe"] + ")"
+    retry = "" if info["recipe"] == "full-quad" else "  (" + info["recipe"] + ")"
     return f"{info['num_cells']:6d} {info['min_quality']:7.3f} {info['min_sicn']:7.3f}{retry}"
 
 
@@ -78,11 +79,15 @@ def star_sweep() -> None:
         print(f"{size:8.2f} {cell(mesh_once(robot, spec))}", flush=True)
 
 
-def case_robots() -> None:
-    """Every case robot meshed as a solid and as a surface at sizes around its case's."""
+def case_robots(tip: float | None) -> None:
+    """Every case robot meshed as a solid and as a surface at sizes around its case's
+    (``tip_size`` = ``tip`` x size if given)."""
     print(f"{'case':22s} {'model':8s} {'size mm':>8s} {'cells':>6s} {'minSJ':>7s} {'minSICN':>7s}")
     for path in sorted(CASES.glob("*.toml")):
-        case = load_case(path)
+        try:
+            case = load_case(path)
+        except CaseError:  # a field-only case (no [robot])
+            continue
         table = {k: v for k, v in to_table(case.mesh).items() if v is not None}
         if case.mesh.model not in ("solid", "surface") or case.mesh.element != "hex":
             continue
@@ -92,6 +97,8 @@ def case_robots() -> None:
                 if size > case.robot.min_feature:
                     continue
                 keys = table | {"size": size, "model": model}
+                if tip is not None:
+                    keys["tip_size"] = tip * size
                 if "size_across" in keys:
                     keys["size_across"] = max(keys["size_across"], size)
                 try:
@@ -111,11 +118,12 @@ def main() -> None:
         default=robot_gmsh.ARC_SEGMENTS,
         help="segments per turn of the retry (default: magfem's ARC_SEGMENTS)",
     )
+    parser.add_argument("--tip-size", type=float, help="with --cases: tip_size / size")
     args = parser.parse_args()
     robot_gmsh.ARC_SEGMENTS = args.arc_segments
     gmsh.initialize(interruptible=False)
     try:
-        case_robots() if args.cases else star_sweep()
+        case_robots(args.tip_size) if args.cases else star_sweep()
     finally:
         gmsh.finalize()
 

@@ -28,7 +28,12 @@ on the coarse mesh) next to a band narrower than the coarse elements (the
 elements, and gmsh splits the inverted quadrilaterals into triangles. When
 the first mesh keeps triangles, the mesh is made again with every curved
 outline curve given at least :data:`ARC_SEGMENTS` segments per full turn
-(even counts); meshes the first recipe makes are left as they are.
+(even counts). The recombination also halves each curve's 1D mesh, and a
+curve with an odd count (one segment on a short curve far from a
+``tip_size`` refinement) leaves its surfaces without elements, which gmsh
+reports only in its log: such meshes are made again with those counts one
+higher, and a piece without elements is refused. Meshes the first recipe
+makes are left as they are.
 
 ``size_across``: :class:`StretchedOutline` scales the outline's y axis by
 size/size_across before meshing; the nodes are scaled back afterwards, so
@@ -328,20 +333,53 @@ def _resolve_arcs(gmsh: Any, curves: list[int], counts: dict[int, int]) -> None:
             gmsh.model.mesh.setTransfiniteCurve(c, n + 1)
 
 
-def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> None:
-    """Mesh; for ``hex``, once more with curved curves resolved if triangles were left.
+def _segments(gmsh: Any, curves: list[int]) -> dict[int, int]:
+    """Segment count of each curve's 1D mesh."""
+    return {c: len(gmsh.model.mesh.getElements(1, c)[1][0]) for c in curves}
 
-    Sets ``info["recipe"]`` to the recipe of the mesh kept.
+
+def _even_curves(gmsh: Any, curves: list[int]) -> None:
+    """Mesh the curves anew, giving any with an odd segment count one segment more.
+
+    Full-quad recombination halves every boundary curve's 1D mesh and fails
+    on an odd count: a curve shorter than two elements far from a
+    ``tip_size`` refinement (:func:`_mesh_options` measures curves against
+    ``tip_size``) is meshed with one.
     """
-    gmsh.model.mesh.generate(plan.tdim)
-    info["recipe"] = "full-quad" if spec.element == "hex" else "triangles"
-    if spec.element != "hex" or not _with_triangles(gmsh, plan.recombine):
-        return
-    counts = {c: len(gmsh.model.mesh.getElements(1, c)[1][0]) for c in plan.curves}
     gmsh.model.mesh.clear()
-    _resolve_arcs(gmsh, plan.curves, counts)
-    gmsh.model.mesh.generate(plan.tdim)
-    info["recipe"] = f"full-quad, arcs >= {ARC_SEGMENTS} segments per turn"
+    gmsh.model.mesh.generate(1)
+    odd = {c: n for c, n in _segments(gmsh, curves).items() if n % 2}
+    gmsh.model.mesh.clear()
+    for c, n in odd.items():
+        gmsh.model.mesh.setTransfiniteCurve(c, n + 2)
+
+
+def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> None:
+    """Mesh; for ``hex``, again if gmsh could not (odd curve counts made even) or left
+    triangles (curved curves resolved). Meshes the first try makes are kept as they are.
+
+    Sets ``info["recipe"]`` to how the mesh kept was made.
+    """
+    hex_ = spec.element == "hex"
+    recipe = ["full-quad" if hex_ else "triangles"]
+    try:
+        gmsh.model.mesh.generate(plan.tdim)
+    except Exception as err:  # raised only when gmsh's verbosity shows errors
+        if not hex_ or "cannot be divided by 2" not in str(err):
+            raise
+    # an odd count leaves the curve's surfaces unmeshed (an error, but no exception, at
+    # the verbosity build_mesh sets): remesh with even counts
+    if hex_ and any(n % 2 for n in _segments(gmsh, plan.curves).values()):
+        _even_curves(gmsh, plan.curves)
+        gmsh.model.mesh.generate(plan.tdim)
+        recipe.append("odd curve counts made even")
+    if hex_ and _with_triangles(gmsh, plan.recombine):
+        counts = _segments(gmsh, plan.curves)
+        gmsh.model.mesh.clear()
+        _resolve_arcs(gmsh, plan.curves, counts)
+        gmsh.model.mesh.generate(plan.tdim)
+        recipe.append(f"arcs >= {ARC_SEGMENTS} segments per turn")
+    info["recipe"] = ", ".join(recipe)
 
 
 def _place_nodes(gmsh: Any, robot: RobotSpec, spec: MeshSpec, outline: Outline) -> None:
@@ -357,8 +395,19 @@ def _place_nodes(gmsh: Any, robot: RobotSpec, spec: MeshSpec, outline: Outline) 
         gmsh.model.mesh.affineTransform([1, 0, 0, sx, 0, syy, 0, sy, 0, 0, 1, sz])
 
 
+def _has_elements(gmsh: Any, dim: int, tag: int) -> bool:
+    return any(len(t) for t in gmsh.model.mesh.getElements(dim, tag)[1])
+
+
 def _check_cells(gmsh: Any, spec: MeshSpec, tdim: int, info: dict[str, Any]) -> None:
-    """One cell type as expected and worst quality >= MIN_QUALITY; fills ``info``."""
+    """Every piece meshed, one cell type as expected and worst quality >= MIN_QUALITY;
+    fills ``info``."""
+    empty = [e for _, e in gmsh.model.getEntities(tdim) if not _has_elements(gmsh, tdim, e)]
+    if empty:
+        raise MeshQualityError(
+            f"gmsh left {len(empty)} of the robot's {len(gmsh.model.getEntities(tdim))} "
+            "pieces without elements at this size; try a slightly smaller or larger mesh.size"
+        )
     types = gmsh.model.mesh.getElementTypes(dim=tdim)
     names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
     want = _EXPECTED_TYPES[(spec.model, spec.element)]
