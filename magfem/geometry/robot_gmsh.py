@@ -339,19 +339,21 @@ def _segments(gmsh: Any, curves: list[int]) -> dict[int, int]:
 
 
 def _even_curves(gmsh: Any, curves: list[int]) -> None:
-    """Mesh the curves anew, giving any with an odd segment count one segment more.
+    """Clear the mesh, mesh the curves anew and give those with an odd segment count one more.
 
     Full-quad recombination halves every boundary curve's 1D mesh and fails
     on an odd count: a curve shorter than two elements far from a
     ``tip_size`` refinement (:func:`_mesh_options` measures curves against
-    ``tip_size``) is meshed with one.
+    ``tip_size``) is meshed with one. The counts are taken from a fresh 1D
+    mesh: the failed recombination leaves the halved one behind.
     """
     gmsh.model.mesh.clear()
     gmsh.model.mesh.generate(1)
-    odd = {c: n for c, n in _segments(gmsh, curves).items() if n % 2}
+    counts = _segments(gmsh, curves)
     gmsh.model.mesh.clear()
-    for c, n in odd.items():
-        gmsh.model.mesh.setTransfiniteCurve(c, n + 2)
+    for c, n in counts.items():
+        if n % 2:
+            gmsh.model.mesh.setTransfiniteCurve(c, n + 2)
 
 
 def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> None:
@@ -367,9 +369,10 @@ def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> N
     except Exception as err:  # raised only when gmsh's verbosity shows errors
         if not hex_ or "cannot be divided by 2" not in str(err):
             raise
-    # an odd count leaves the curve's surfaces unmeshed (an error, but no exception, at
-    # the verbosity build_mesh sets): remesh with even counts
-    if hex_ and any(n % 2 for n in _segments(gmsh, plan.curves).values()):
+    # an odd count leaves the curve's surfaces without elements (an error in gmsh's log,
+    # but no exception, at the verbosity build_mesh sets): remesh with even counts
+    odd = any(n % 2 for n in _segments(gmsh, plan.curves).values())
+    if hex_ and (odd or not all(_has_elements(gmsh, 2, s) for s in plan.recombine)):
         _even_curves(gmsh, plan.curves)
         gmsh.model.mesh.generate(plan.tdim)
         recipe.append("odd curve counts made even")
