@@ -14,9 +14,11 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from magfem.config import CaseError, from_table
+from magfem.geometry import robot_gmsh
 from magfem.geometry.robot_mesh import (
     MIN_QUALITY,
     SHELL_CLAMP_INSET,
@@ -157,12 +159,9 @@ def test_size_across_rejected():
         meshspec(size="0.1 mm", size_across="0.5 mm", model="strip")
 
 
-@pytest.mark.slow  # over 0.3 s: not in the fast tier
-def test_a_size_gmsh_cannot_mesh_in_one_cell_type_names_the_key(comm):
-    """The five-arm star (cases/five_arm.toml) as a solid at 0.7 mm: gmsh's recombination
-    leaves prisms among the hexahedra (it does at 0.6-0.75 mm, not at 0.5 or 0.8 mm). The
-    user is told which key to change, as for any other bad input, on every rank."""
-    star = robot(
+def five_arm_star() -> RobotSpec:
+    """The star of cases/five_arm.toml (its bonded disk leaves a 0.5 mm ring inside the hub)."""
+    return robot(
         "star",
         arms=5,
         arm_length=5e-3,
@@ -171,8 +170,98 @@ def test_a_size_gmsh_cannot_mesh_in_one_cell_type_names_the_key(comm):
         clamp_radius=1e-3,
         thickness=8e-5,
     )
+
+
+def cut_off_by_chords(rm, radius: float, comm) -> float:
+    """Global area (surface) or volume (solid) between a circle of ``radius`` about the
+    origin and the boundary chords whose nodes all lie on it (the mesh's straight edges
+    along the outline's arcs): the circular segment R²/2 (θ − sin θ) of each chord,
+    times the height of its side face for the solid."""
+    msh = rm.mesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    facets = dmesh.exterior_facet_indices(msh.topology)
+    facets = facets[facets < msh.topology.index_map(tdim - 1).size_local]  # owned: once each
+    x = msh.geometry.x[dmesh.entities_to_geometry(msh, tdim - 1, facets)]  # (facets, nodes, 3)
+    on = np.all(np.abs(np.hypot(x[..., 0], x[..., 1]) - radius) < 1e-9 * radius, axis=1)
+    height = np.ptp(x[..., 2], axis=1) if tdim == 3 else np.ones(len(x))
+    keep = on & (height > 0)  # solid: side faces only (a top or bottom face has height 0)
+    xy = x[keep][..., :2]
+    chord = np.max(np.linalg.norm(xy[:, :, None] - xy[:, None, :], axis=-1), axis=(1, 2))
+    theta = 2 * np.arcsin(chord / (2 * radius))
+    return comm.allreduce(float(np.sum(0.5 * radius**2 * (theta - np.sin(theta)) * height[keep])))
+
+
+@pytest.mark.parametrize("model", ["solid", "surface"])
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
+def test_five_arm_star_meshes_into_hexahedra_where_full_quad_left_triangles(model, comm):
+    """The five-arm star at 0.55-0.75 mm, where gmsh's blossom full-quad alone leaves
+    triangles (prisms in the solid) in the ring between the bonded disk and the hub
+    (benchmarks/hex_meshing.py), meshes into hexahedra (quadrilaterals) only: the retry
+    with the circles resolved. The cells tile the outline: the mesh volume is the exact
+    area, less the circular segments cut off by the boundary chords on the hub circle,
+    times the thickness (or the area for the surface)."""
+    star = five_arm_star()
+    hub = star.params.hub_radius
+    cell = {"solid": "hexahedron", "surface": "quadrilateral"}[model]
+    depth = {"solid": star.thickness, "surface": 1.0}[model]
+    for size in (5.5e-4, 6e-4, 6.5e-4, 7e-4, 7.5e-4):
+        rm = create_robot_mesh(star, meshspec(model=model, size=size), comm)
+        assert rm.mesh.topology.cell_name() == cell
+        assert rm.mesh.topology.index_map(rm.mesh.topology.dim).size_global == rm.num_cells
+        assert rm.min_quality >= MIN_QUALITY
+        cut = cut_off_by_chords(rm, hub, comm)
+        expected = rm.area * depth - cut
+        # the cells tile the polygon of the boundary nodes, whose area is exact up to the
+        # round-off of the node coordinates (~1e-16 relative); an inverted or overlapping
+        # cell adds its |det J| and a gap removes its area, far above 1e-9 (measured <= 8e-15)
+        assert measure(rm, comm) == pytest.approx(expected, rel=1e-9), size
+        assert 0 < cut < 1e-3 * rm.area * depth  # short chords: a small correction (6.4e-5)
+
+
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
+def test_a_size_gmsh_cannot_mesh_in_one_cell_type_names_the_key(comm, monkeypatch):
+    """When the retry leaves triangles too (forced here: ARC_SEGMENTS = 0 resolves no
+    circle, so the retry remeshes the five-arm star at 0.7 mm as the first recipe did),
+    the user is told which key to change, as for any other bad input, on every rank."""
+    monkeypatch.setattr(robot_gmsh, "ARC_SEGMENTS", 0)
     with pytest.raises(CaseError, match="Prism") as err:
-        create_robot_mesh(star, meshspec(model="solid", size=7e-4), comm)
+        create_robot_mesh(five_arm_star(), meshspec(model="solid", size=7e-4), comm)
+    assert err.value.key == "mesh.size"
+
+
+@pytest.mark.parametrize("shape", ["rectangle", "bow_tie"])
+def test_tip_size_meshes_every_piece(shape, comm):
+    """``tip_size`` = size/4 at size 2 mm (rectangle) and 1 mm (bow tie): a curve far from
+    the tips, shorter than two elements, got one segment, which full-quad recombination
+    cannot halve, and gmsh left its pieces unmeshed without raising (the rectangle lost its
+    1 mm clamp patch, 10 % of its volume; the bow tie 5.5 %). Now every piece is meshed:
+    the volume is the polygon's area x thickness (exact up to round-off: 1e-9) and the
+    clamp face has the patch's area."""
+    r = robot(shape)
+    size = {"rectangle": 2e-3, "bow_tie": 1e-3}[shape]
+    rm = create_robot_mesh(r, meshspec(size=size, tip_size=size / 4), comm)
+    assert rm.mesh.topology.cell_name() == "hexahedron"
+    assert measure(rm, comm) == pytest.approx(rm.area * THICKNESS, rel=1e-9)
+    ds = ufl.Measure(
+        "ds", domain=rm.mesh, subdomain_data=rm.facet_tags, metadata={"quadrature_degree": Q}
+    )
+    clamp = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds(rm.groups["clamp"][1]))))
+    p = r.params
+    if shape == "rectangle":
+        exact = p.clamp_length * p.width
+    else:  # |x| < c/2 of widths m + (e - m) |x| / (L/2)
+        exact = p.clamp_length * p.middle_width
+        exact += (p.end_width - p.middle_width) * p.clamp_length**2 / (2 * p.length)
+    assert clamp == pytest.approx(exact, rel=1e-12)
+
+
+def test_a_piece_gmsh_leaves_unmeshed_names_the_key(comm, monkeypatch):
+    """Without the even curve counts (forced here), the rectangle's clamp patch at 2 mm with
+    tip_size 0.5 mm has no elements: refused on mesh.size, not a robot with a part missing."""
+    monkeypatch.setattr(robot_gmsh, "_even_curves", lambda gmsh, curves: None)
+    with pytest.raises(CaseError, match="without elements") as err:
+        create_robot_mesh(robot("rectangle"), meshspec(size=2e-3, tip_size=5e-4), comm)
     assert err.value.key == "mesh.size"
 
 

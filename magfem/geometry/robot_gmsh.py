@@ -18,6 +18,23 @@
    the ``size_across`` stretch are applied to the mesh nodes, and the cell
    type and element quality are checked.
 
+Full-quad recombination (gmsh's blossom full-quad, Remacle et al., Int. J.
+Numer. Meth. Eng. 89, 1102 (2012)) meshes each surface at twice the size,
+recombines, splits every quadrilateral into four and every triangle into
+three, and moves the new nodes of curved curves back onto the curve. Where
+a curve is resolved by few segments (a circle of 10 segments is a pentagon
+on the coarse mesh) next to a band narrower than the coarse elements (the
+0.5 mm ring between a star's bonded disk and its hub), that move inverts
+elements, and gmsh splits the inverted quadrilaterals into triangles. When
+the first mesh keeps triangles, the mesh is made again with every curved
+outline curve given at least :data:`ARC_SEGMENTS` segments per full turn
+(even counts). The recombination also halves each curve's 1D mesh, and a
+curve with an odd count (one segment on a short curve far from a
+``tip_size`` refinement) leaves its surfaces without elements, which gmsh
+reports only in its log: such meshes are made again with those counts one
+higher, and a piece without elements is refused. Meshes the first recipe
+makes are left as they are.
+
 ``size_across``: :class:`StretchedOutline` scales the outline's y axis by
 size/size_across before meshing; the nodes are scaled back afterwards, so
 the elements are ``size`` long and ``size_across`` wide.
@@ -26,6 +43,7 @@ the elements are ``size`` long and ``size_across`` wide.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -37,7 +55,14 @@ from magfem.geometry.beam import BeamOutline
 from magfem.geometry.outline import Outline
 from magfem.geometry.spec import MeshSpec, RobotSpec
 
-__all__ = ["MIN_QUALITY", "QUALITY_METRIC", "MeshQualityError", "StretchedOutline", "robot_builder"]
+__all__ = [
+    "ARC_SEGMENTS",
+    "MIN_QUALITY",
+    "QUALITY_METRIC",
+    "MeshQualityError",
+    "StretchedOutline",
+    "robot_builder",
+]
 
 QUALITY_METRIC = "minSJ"
 """gmsh element quality used: minimum scaled Jacobian (1 for undistorted
@@ -45,6 +70,13 @@ boxes of any aspect ratio, <= 0 for inverted elements)."""
 
 MIN_QUALITY = 0.1
 """Meshes whose worst element has a smaller scaled Jacobian are rejected."""
+
+
+ARC_SEGMENTS = 16
+"""Segments per full turn of a curved outline curve when the first mesh keeps triangles:
+the coarse mesh of the full-quad recombination then has 8 chords per turn, whose
+sagitta is 8 % of the radius (every robot of the cases meshes into quadrilaterals
+with 16, 20 and 24, not with 12: ``benchmarks/hex_meshing.py --cases --arc-segments``)."""
 
 
 class MeshQualityError(RuntimeError):
@@ -273,6 +305,86 @@ def _mesh_options(gmsh: Any, spec: MeshSpec, plan: _Plan) -> None:
             gmsh.model.mesh.setTransfiniteCurve(c, 3)
 
 
+def _with_triangles(gmsh: Any, surfaces: list[int]) -> list[int]:
+    """The surfaces among ``surfaces`` whose mesh has triangles."""
+    out = []
+    for s in surfaces:
+        types, _, _ = gmsh.model.mesh.getElements(2, s)
+        names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
+        if any(n.startswith("Triangle") for n in names):
+            out.append(s)
+    return out
+
+
+def _resolve_arcs(gmsh: Any, curves: list[int], counts: dict[int, int]) -> None:
+    """At least :data:`ARC_SEGMENTS` segments per full turn on every curved curve.
+
+    ``counts`` are the curves' segment counts of the first mesh; a curve keeps
+    its count where that is enough, and the new counts are even (the full-quad
+    recombination halves them).
+    """
+    for c in curves:
+        lo, hi = gmsh.model.getParametrizationBounds(1, c)
+        kappa = gmsh.model.getCurvature(1, c, np.linspace(lo[0], hi[0], 5))
+        turn = gmsh.model.occ.getMass(1, c) * float(np.max(np.abs(kappa)))  # rad (arcs)
+        n = max(counts[c], math.ceil(turn * ARC_SEGMENTS / (2 * math.pi) - 1e-9))
+        n += n % 2
+        if n > counts[c]:
+            gmsh.model.mesh.setTransfiniteCurve(c, n + 1)
+
+
+def _segments(gmsh: Any, curves: list[int]) -> dict[int, int]:
+    """Segment count of each curve's 1D mesh."""
+    return {c: len(gmsh.model.mesh.getElements(1, c)[1][0]) for c in curves}
+
+
+def _even_curves(gmsh: Any, curves: list[int]) -> None:
+    """Clear the mesh, mesh the curves anew and give those with an odd segment count one more.
+
+    Full-quad recombination halves every boundary curve's 1D mesh and fails
+    on an odd count: a curve shorter than two elements far from a
+    ``tip_size`` refinement (:func:`_mesh_options` measures curves against
+    ``tip_size``) is meshed with one. The counts are taken from a fresh 1D
+    mesh: the failed recombination leaves the halved one behind.
+    """
+    gmsh.model.mesh.clear()
+    gmsh.model.mesh.generate(1)
+    counts = _segments(gmsh, curves)
+    gmsh.model.mesh.clear()
+    for c, n in counts.items():
+        if n % 2:
+            gmsh.model.mesh.setTransfiniteCurve(c, n + 2)
+
+
+def _generate(gmsh: Any, spec: MeshSpec, plan: _Plan, info: dict[str, Any]) -> None:
+    """Mesh; for ``hex``, again if gmsh could not (odd curve counts made even) or left
+    triangles (curved curves resolved). Meshes the first try makes are kept as they are.
+
+    Sets ``info["recipe"]`` to how the mesh kept was made.
+    """
+    hex_ = spec.element == "hex"
+    recipe = ["full-quad" if hex_ else "triangles"]
+    try:
+        gmsh.model.mesh.generate(plan.tdim)
+    except Exception as err:  # raised only when gmsh's verbosity shows errors
+        if not hex_ or "cannot be divided by 2" not in str(err):
+            raise
+    # an odd count leaves the curve's surfaces without elements (an error in gmsh's log,
+    # but no exception, at the verbosity build_mesh sets): remesh with even counts
+    odd = any(n % 2 for n in _segments(gmsh, plan.curves).values())
+    if hex_ and (odd or not all(_has_elements(gmsh, 2, s) for s in plan.recombine)):
+        _even_curves(gmsh, plan.curves)
+        gmsh.model.mesh.generate(plan.tdim)
+        recipe.append("odd curve counts made even")
+    if hex_ and _with_triangles(gmsh, plan.recombine):
+        counts = _segments(gmsh, plan.curves)
+        gmsh.model.mesh.clear()
+        _resolve_arcs(gmsh, plan.curves, counts)
+        gmsh.model.mesh.generate(plan.tdim)
+        recipe.append(f"arcs >= {ARC_SEGMENTS} segments per turn")
+    info["recipe"] = ", ".join(recipe)
+
+
 def _place_nodes(gmsh: Any, robot: RobotSpec, spec: MeshSpec, outline: Outline) -> None:
     """Add ``position`` (strip: (x, z) += (px, pz)) and undo the ``size_across`` stretch.
 
@@ -286,15 +398,27 @@ def _place_nodes(gmsh: Any, robot: RobotSpec, spec: MeshSpec, outline: Outline) 
         gmsh.model.mesh.affineTransform([1, 0, 0, sx, 0, syy, 0, sy, 0, 0, 1, sz])
 
 
+def _has_elements(gmsh: Any, dim: int, tag: int) -> bool:
+    return any(len(t) for t in gmsh.model.mesh.getElements(dim, tag)[1])
+
+
 def _check_cells(gmsh: Any, spec: MeshSpec, tdim: int, info: dict[str, Any]) -> None:
-    """One cell type as expected and worst quality >= MIN_QUALITY; fills ``info``."""
+    """Every piece meshed, one cell type as expected and worst quality >= MIN_QUALITY;
+    fills ``info``."""
+    empty = [e for _, e in gmsh.model.getEntities(tdim) if not _has_elements(gmsh, tdim, e)]
+    if empty:
+        raise MeshQualityError(
+            f"gmsh left {len(empty)} of the robot's {len(gmsh.model.getEntities(tdim))} "
+            "pieces without elements at this size; try a slightly smaller or larger mesh.size"
+        )
     types = gmsh.model.mesh.getElementTypes(dim=tdim)
     names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
     want = _EXPECTED_TYPES[(spec.model, spec.element)]
     if len(types) != 1 or not names[0].startswith(want):
         raise MeshQualityError(
             f"gmsh made {names} cells where only {want} are meshed (its recombination left "
-            "other cells at this size); a slightly smaller or larger mesh.size usually works"
+            f"other cells at this size, also with curved curves at >= {ARC_SEGMENTS} segments "
+            "per turn); try a slightly smaller or larger mesh.size"
         )
     _, tags, _ = gmsh.model.mesh.getElements(dim=tdim)
     quality = gmsh.model.mesh.getElementQualities(tags[0], QUALITY_METRIC)
@@ -313,9 +437,10 @@ def robot_builder(
 ) -> Callable[[Any], None]:
     """The gmsh builder of ``outline`` meshed as ``spec`` says (run on rank 0).
 
-    It fills ``info`` with ``num_cells`` and ``min_quality`` (gmsh's
-    :data:`QUALITY_METRIC`), and raises :class:`MeshQualityError` on mixed
-    cell types or elements worse than :data:`MIN_QUALITY`.
+    It fills ``info`` with ``num_cells``, ``min_quality`` (gmsh's
+    :data:`QUALITY_METRIC`) and ``recipe`` (how the quadrilaterals were
+    made), and raises :class:`MeshQualityError` on mixed cell types or
+    elements worse than :data:`MIN_QUALITY`.
     """
 
     def builder(gmsh: Any) -> None:
@@ -324,7 +449,7 @@ def robot_builder(
         _add_groups(gmsh, plan)
         _mesh_options(gmsh, spec, plan)
         _size_field(gmsh, spec, outline, plan)
-        gmsh.model.mesh.generate(plan.tdim)
+        _generate(gmsh, spec, plan, info)
         if spec.order == 2:
             gmsh.model.mesh.setOrder(2)
         _place_nodes(gmsh, robot, spec, outline)
