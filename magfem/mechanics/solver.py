@@ -44,6 +44,8 @@ from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
 from magfem.mechanics.spec import SolverSpec
 
 __all__ = [
+    "FACTORISATIONS",
+    "KRYLOV_DEFAULTS",
     "PETSC_LU_NONZEROS",
     "NewtonReport",
     "NewtonSolver",
@@ -60,6 +62,21 @@ cost per factorisation dominates below, its supernodes win above (CPU per
 numeric factorisation, ``python -m benchmarks.direct_solvers``: 5x less with
 PETSc's LU on a rod's 33 k nonzeros, 1.7x on a shell's 65 k, even at 174 k,
 MUMPS 1.3x faster on the default solid's 211 k, 2x on 380 k)."""
+
+FACTORISATIONS = ("lu", "cholesky")
+"""Preconditioners (``pc_type``) that are direct factorisations."""
+
+KRYLOV_DEFAULTS: dict[str, Any] = {
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_rtol": 1e-8,
+    "ksp_gmres_restart": 200,
+    "ksp_max_it": 1000,
+}
+"""Krylov options under a preconditioner that is not a factorisation (e.g.
+``petsc_options = { pc_type = "gamg" }``), each overridden by ``petsc_options``:
+GMRES preconditioned on the right, so its relative tolerance is the true
+residual's, 1e-8 of it (Newton's own tolerance is 1e-6 of the predictor's residual)."""
 
 _COUNTER = itertools.count()
 
@@ -128,7 +145,10 @@ def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[s
     """PETSc options (without prefix) for a :class:`SolverSpec`.
 
     ``linear_solver``: the direct solver chosen (:func:`choose_linear_solver`);
-    None: ``spec.linear_solver``, with ``auto`` read as ``mumps``.
+    None: ``spec.linear_solver``, with ``auto`` read as ``mumps``. Where
+    ``spec.petsc_options`` names a preconditioner other than a factorisation
+    (``pc_type``), the LU's options are left out and the Krylov method
+    defaults to :data:`KRYLOV_DEFAULTS`.
     """
     if linear_solver is None:
         linear_solver = "mumps" if spec.linear_solver == "auto" else spec.linear_solver
@@ -145,7 +165,10 @@ def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[s
         "pc_type": "lu",
         "ksp_error_if_not_converged": False,
     }
-    opts |= _factor_options(linear_solver)
+    if spec.petsc_options.get("pc_type", "lu") in FACTORISATIONS:
+        opts |= _factor_options(linear_solver)
+    else:
+        opts |= KRYLOV_DEFAULTS
     if spec.reuse_jacobian:
         # rebuild the Jacobian every second Newton iteration only
         opts["snes_lag_jacobian"] = 2
@@ -238,7 +261,7 @@ class NewtonSolver:
         chosen = choose_linear_solver(self.spec, nonzeros, A.comm.getSize())
         pc = self.snes.getKSP().getPC()
         user = self.spec.petsc_options
-        if pc.getType() not in ("lu", "cholesky"):
+        if pc.getType() not in FACTORISATIONS:
             return str(pc.getType())
         if "pc_factor_mat_solver_type" in user:
             return str(user["pc_factor_mat_solver_type"])

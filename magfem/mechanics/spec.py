@@ -245,7 +245,10 @@ class SolverSpec:
 
     ``petsc_options`` entries are given without prefix, e.g.
     ``petsc_options = { snes_monitor = "" , mat_mumps_icntl_14 = 200 }``,
-    and override the options derived from the other keys.
+    and override the options derived from the other keys. A ``pc_type``
+    other than ``lu``/``cholesky`` (e.g. ``"gamg"``) replaces the direct
+    solve by right-preconditioned GMRES to 1e-8 of the residual
+    (:data:`magfem.mechanics.solver.KRYLOV_DEFAULTS`).
 
     Newton converges when the residual norm ‖R‖ (the Euclidean norm of the
     nodal force vector, N; N/m for strips) drops below ``rtol`` × its value
