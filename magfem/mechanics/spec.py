@@ -359,6 +359,10 @@ class ContactSpec:
     self_contact_exclusion: float = quantity(
         2.0, "", ge=0.0, doc="points closer than this (in thicknesses) at rest never touch"
     )
+    self_contact_within: bool = True
+    """Each group also touches itself (an arm curling past 180°, a membrane folded over):
+    two of its points touch only when farther apart at rest than the exclusion and than
+    twice the group's largest cell, so a flat or smoothly bent membrane feels nothing."""
 
 
 @dataclass(frozen=True)
