@@ -14,7 +14,8 @@ for it:
   symmetric, action = reaction.
 * Pressed: the lower plate held, the upper one rests on it under a body
   force G: the contact carries its weight and the mid-surfaces are H − δ
-  apart, δ = r⁻¹(p/k_c) under p = ρ G H (:func:`reference.penalty_penetration`).
+  apart, δ = r⁻¹(p/k_c) under p = ρ G H (:func:`reference.penalty_penetration`);
+  the same for two strip blocks of one group (the faces of the cells).
 * Neighbourhood: a flat strip and the strip rolled onto arcs up to 286°
   (one group, its own exclusion the only thing that keeps its neighbours
   apart) pair no neighbour and feel no self-contact force; the shell
@@ -360,3 +361,76 @@ def test_one_group_needs_within(comm):
     )
     with pytest.raises(CaseError, match=r"self_contact_groups.*within"):
         build_simulation(case, comm, robot_mesh=_sheet(comm))
+
+
+BLOCK, BLOCK_H, BLOCK_SIZE, BLOCK_LIFT = 1e-3, 2e-4, 1e-4, 5e-4  # m (strip: side views)
+
+
+def _blocks(comm: MPI.Comm) -> RobotMesh:
+    """Two BLOCK × BLOCK_H blocks of one cell group ``sheet``, BLOCK_LIFT between them at rest
+    (more than the group's exclusion, max(2 H, 2 × 0.14 mm) = 0.4 mm), the lower one's base
+    line ``clamp`` (strip, gdim 2)."""
+
+    def builder(gmsh: Any) -> None:
+        occ = gmsh.model.occ
+        lower = occ.addRectangle(0.0, 0.0, 0.0, BLOCK, BLOCK_H)
+        upper = occ.addRectangle(0.0, BLOCK_H + BLOCK_LIFT, 0.0, BLOCK, BLOCK_H)
+        occ.synchronize()
+        base = [
+            abs(t)
+            for _, t in gmsh.model.getBoundary([(2, lower)], oriented=False)
+            if gmsh.model.getBoundingBox(1, abs(t))[4] < 1e-6  # OCC pads boxes by ~1e-7
+        ]
+        gmsh.model.addPhysicalGroup(2, [lower, upper], name="sheet")
+        gmsh.model.addPhysicalGroup(1, base, name="clamp")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", BLOCK_SIZE)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.model.mesh.generate(2)
+
+    data = build_mesh(builder, comm, gdim=2, name="blocks")
+    return RobotMesh(
+        mesh=data.mesh,
+        cell_tags=data.cell_tags,
+        facet_tags=data.facet_tags,
+        groups={k: (int(v[0]), int(v[1])) for k, v in data.physical_groups.items()},
+        arms=(),
+        model="strip",
+        thickness=BLOCK_H,
+        min_quality=1.0,
+        num_cells=0,
+        area=2 * BLOCK * BLOCK_H,
+    )
+
+
+@pytest.mark.slow
+def test_strip_block_pressed_onto_its_own_group_rests_at_the_penalty_penetration(comm):
+    """The strip (faces of the cells, one-sided normals): the upper block of the group,
+    lowered onto the lower one (clamped at its base), rests on it under a body force."""
+    G, dt = 100.0, 5e-4  # m/s², s
+    case = parse_case(
+        {
+            "name": "blocks",
+            "robot": {"shape": "membrane", "thickness": BLOCK_H, "length": BLOCK, "width": 1e-3},
+            "mesh": {"size": BLOCK_SIZE, "model": "strip"},
+            "material": {"shear_modulus": MU, "density": RHO, "remanence": 0.0},
+            "contact": {"self_contact": True, "self_contact_groups": ["sheet"]},
+            "environment": {"gravity": [0, 0, -G], "clamped": ["clamp"]},
+            "time": {"adaptive": False, "end": 2e-2, "step": dt, "rho_inf": 0.5},
+            "output": {"csv": False, "vtx_every": 0, "plot": False},
+        }
+    )
+    sim = build_simulation(case, comm, robot_mesh=_blocks(comm))
+    X = sim.u.function_space.tabulate_dof_coordinates()
+    disp = np.zeros((len(X), 2))
+    disp[X[:, 1] > BLOCK_H + 0.5 * BLOCK_LIFT, 1] = -BLOCK_LIFT
+    sim.u.x.array[:] = disp.ravel()
+    sim.integrator.u0.x.array[:] = sim.u.x.array
+    h = sim.run(progress=False).history
+    weight = RHO * G * BLOCK_H * BLOCK * 1e-3  # N
+    tail = h["self_contact_force_sheet__sheet"][3 * len(h["time"]) // 4 :]
+    # at rest the contact carries the weight (two groups: measured to 8e-6)
+    assert np.max(np.abs(tail / weight - 1)) < 1e-3, tail / weight
+    # the elastic blocks carry the pressure unevenly (two groups: every node within 8 % of δ,
+    # the largest 1.02 δ); a gap from the wrong face would be 2H off, a wrong scale a factor
+    expected = ref.penalty_penetration(RHO * G * BLOCK_H, KAPPA * MU / BLOCK_H, ONSET * BLOCK_H)
+    assert h["self_contact_penetration"][-1] == pytest.approx(expected, rel=0.08)

@@ -199,14 +199,14 @@ class SelfContact(Contact):
             if active and not was:
                 where = m / w
                 self.first_touch.setdefault(pair, t)
+                other = "itself" if i == j else self.pairing.groups[j]
                 self._events.append(
-                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {self.pairing.groups[j]} at "
+                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {other} at "
                     f"{_mm(where)} mm, force {fp:.3g} N"
                 )
             elif was and not active:
-                self._events.append(
-                    f"t = {t:.6g} s: {self.pairing.groups[i]} leaves {self.pairing.groups[j]}"
-                )
+                other = "itself" if i == j else self.pairing.groups[j]
+                self._events.append(f"t = {t:.6g} s: {self.pairing.groups[i]} leaves {other}")
             self._active[pair] = active
         centroid = total_m / total_w if total_w > 0 else np.full(gdim, np.nan)
         c3 = centroid if gdim == 3 else np.array([centroid[0], 0.0, centroid[1]])
