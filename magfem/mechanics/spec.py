@@ -349,7 +349,8 @@ class ContactSpec:
     """Contact between cell groups of the robot (arm–arm),
     :mod:`magfem.mechanics.contacts.self_contact`."""
     self_contact_groups: tuple[str, ...] = ()
-    """Cell groups that may touch each other (default: the robot's arms/petals)."""
+    """Cell groups that may touch each other, and themselves with ``self_contact_within``
+    (default: the robot's arms/petals)."""
     self_contact_penalty: float = quantity(
         10.0, "", gt=0.0, doc="κ_s: self-contact stiffness k_c = κ_s μ / thickness"
     )

@@ -28,6 +28,11 @@ Search (closest point, nearest-node form).
     plane equals the gap to the surface for a flat master and is off by
     O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
     Nodes without a master have x̄ at their own position (no gap there).
+    With ``within`` a group is also searched against itself: candidates
+    closer at rest than its own exclusion are skipped before the nearest
+    CANDIDATES are examined, pairs are kept below a gap of one cell, and
+    its nodes take their master nodes around the master vertex found
+    (:mod:`.law`, :meth:`SurfacePairing._pair_own_nodes`).
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
