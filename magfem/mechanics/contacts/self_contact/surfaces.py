@@ -117,6 +117,7 @@ class ContactSurfaces:
                     self.adjacent[d, slot[d]] = f
                     slot[d] += 1
         self.reference = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
+        self.entity_label = facet_label  # group index per contact entity
         self.partner = np.full(n_nodes, -1, dtype=np.int32)
         self.gap = np.zeros(n_nodes)
         self._normal_c = fem.Function(Vc)  # unit outward nodal normals at the contact vertices
@@ -158,8 +159,7 @@ class ContactSurfaces:
             return
         corners = self.reference[self.facet_dofs]  # (entities, corners, gdim)
         span = np.linalg.norm(corners[:, :, None, :] - corners[:, None, :, :], axis=-1)
-        label = self.node_label[self.facet_dofs].max(axis=1, initial=-1)
-        np.maximum.at(self._diameter, label[label >= 0], span.max(axis=(1, 2))[label >= 0])
+        np.maximum.at(self._diameter, self.entity_label, span.max(axis=(1, 2), initial=0.0))
         self.comm.Allreduce(MPI.IN_PLACE, self._diameter, op=MPI.MAX)
         self.own_exclusion = np.maximum(self.law.exclusion, NEIGHBOURHOOD * self._diameter)
         owned = self.nodes[self.nodes < self.size_local]
