@@ -352,7 +352,8 @@ class ContactSpec:
     """Contact between cell groups of the robot (arm–arm),
     :mod:`magfem.mechanics.contacts.self_contact`."""
     self_contact_groups: tuple[str, ...] = ()
-    """Cell groups that may touch each other (default: the robot's arms/petals)."""
+    """Cell groups that may touch each other, and themselves with ``self_contact_within``
+    (default: the robot's arms/petals)."""
     self_contact_penalty: float = quantity(
         10.0, "", gt=0.0, doc="κ_s: self-contact stiffness k_c = κ_s μ / thickness"
     )
@@ -362,6 +363,10 @@ class ContactSpec:
     self_contact_exclusion: float = quantity(
         2.0, "", ge=0.0, doc="points closer than this (in thicknesses) at rest never touch"
     )
+    self_contact_within: bool = True
+    """Each group also touches itself (an arm curling past 180°, a membrane folded over):
+    two of its points touch only when farther apart at rest than the exclusion and than
+    twice the group's largest cell, so a flat or smoothly bent membrane feels nothing."""
 
 
 @dataclass(frozen=True)

@@ -40,16 +40,16 @@ class SelfContact(Contact):
     """Two-pass penalty contact between the surfaces of cell groups of one body (collective).
 
     Args:
-        spec: ``[contact]`` (penalty, onset, exclusion, groups; default groups:
-            the robot's arms).
+        spec: ``[contact]`` (penalty, onset, exclusion, groups, within; default
+            groups: the robot's arms).
         model: the body: a continuum model (solid, strip: the groups' boundary
             faces touch) or the shell (the groups' mid-surfaces, a thickness
             apart when they touch, :mod:`.shell`).
         shear_modulus: μ (Pa), which scales the penalty stiffness.
 
     Raises:
-        CaseError: another model (the rod), fewer than two groups, an unknown
-            or non-cell group.
+        CaseError: another model (the rod), no group (fewer than two without
+            ``self_contact_within``), an unknown or non-cell group.
     """
 
     name = "self_contact"
@@ -118,8 +118,10 @@ class SelfContact(Contact):
 
     @property
     def pairs(self) -> list[tuple[int, int]]:
-        """Unordered pairs (i < j) of group indices."""
-        return list(itertools.combinations(range(len(self.pairing.groups)), 2))
+        """Unordered pairs (i < j) of group indices, then (i, i) per group touching itself."""
+        n = len(self.pairing.groups)
+        within = [(i, i) for i in range(n)] if self.pairing.law.within else []
+        return list(itertools.combinations(range(n), 2)) + within
 
     def pair_name(self, pair: tuple[int, int]) -> str:
         """``<group_i>__<group_j>``."""
@@ -141,7 +143,8 @@ class SelfContact(Contact):
 
         Refreshes the pairing at that state. Returns the :meth:`columns`:
         force (N; strips: N/m × depth) summed over pairs and per pair
-        (mean of the two passes' resultant magnitudes), the largest
+        (mean of the two passes' resultant magnitudes; a group on itself: half
+        the sum of its nodal force magnitudes, both faces being slaves), the largest
         penetration −g (m, >= 0) and the pressure-weighted centroid of the
         touching vertices (m; strips: (x, 0, z); NaN when nothing touches).
         Records touch/release events.
@@ -177,25 +180,33 @@ class SelfContact(Contact):
         total, total_w, total_m = 0.0, 0.0, np.zeros(gdim)
         for pair in self.pairs:
             i, j = pair
-            fp = 0.5 * width * (np.linalg.norm(resultant[i, j]) + np.linalg.norm(resultant[j, i]))
+            if i == j:  # both faces are slaves, their forces cancel: half the magnitudes' sum
+                fp = 0.5 * width * weight[i, i]
+            else:
+                fp = (
+                    0.5
+                    * width
+                    * (np.linalg.norm(resultant[i, j]) + np.linalg.norm(resultant[j, i]))
+                )
             row[f"self_contact_force_{self.pair_name(pair)}"] = float(fp)
-            w = weight[i, j] + weight[j, i]
+            w = weight[i, j] + (weight[j, i] if i != j else 0.0)
+            m = moment[i, j] + (moment[j, i] if i != j else 0.0)
             total += fp
             total_w += w
-            total_m += moment[i, j] + moment[j, i]
+            total_m += m
             active = bool(max(deepest[i, j], deepest[j, i]) > TOUCH * self.pairing.law.onset)
             was = self._active.get(pair, False)
             if active and not was:
-                where = (moment[i, j] + moment[j, i]) / w
+                where = m / w
                 self.first_touch.setdefault(pair, t)
+                other = "itself" if i == j else self.pairing.groups[j]
                 self._events.append(
-                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {self.pairing.groups[j]} at "
+                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {other} at "
                     f"{_mm(where)} mm, force {fp:.3g} N"
                 )
             elif was and not active:
-                self._events.append(
-                    f"t = {t:.6g} s: {self.pairing.groups[i]} leaves {self.pairing.groups[j]}"
-                )
+                other = "itself" if i == j else self.pairing.groups[j]
+                self._events.append(f"t = {t:.6g} s: {self.pairing.groups[i]} leaves {other}")
             self._active[pair] = active
         centroid = total_m / total_w if total_w > 0 else np.full(gdim, np.nan)
         c3 = centroid if gdim == 3 else np.array([centroid[0], 0.0, centroid[1]])

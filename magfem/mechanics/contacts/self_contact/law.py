@@ -7,7 +7,46 @@ Which surfaces.
     is two-pass and symmetric, each surface being pushed out of the other.
     Points of two groups that lie closer than ``self_contact_exclusion``
     thicknesses apart in the reference configuration never touch (groups
-    that meet at the hub), and a surface never contacts itself.
+    that meet at the hub).
+
+Within a group.
+    With ``self_contact_within`` (on by default) every group is also its own
+    master (a membrane folding onto itself, an arm curling past 180°). Its
+    own neighbourhood is excluded in the reference configuration: two
+    points of one group touch only when they lie at least
+
+    .. math::
+
+        E = \max(e\,h,\; 2\,a)
+
+    apart at rest (e h: ``self_contact_exclusion``; a: the group's largest
+    contact cell or facet, corner to corner; for a shell, measured to every
+    corner of the master cell). Without it a vertex pairs with the cells
+    around it: their planes pass through it, a shell's mid-surfaces are 0
+    apart instead of h (g = −h), and on a membrane bent to radius R the
+    neighbours at distance d are only d²/(2R) apart. With it, a cell that
+    may touch a slave vertex has every corner ≥ 2a, so the cell itself
+    ≥ a, away at rest, while the slave's foot must lie in the cell (up to
+    ``INSIDE``, ~0.1 a laterally). On a smoothly bent inextensible membrane
+    turned by θ ≤ 90° between the two points the lateral offset is
+    ≥ (2/π) × the arc ≥ 0.64 a; turned by 60°–120° the facing test
+    rejects the pair; turned by more, the points lie across a fold of mean
+    radius R and the gap to the tangent plane, R(1 − cos θ) − h ≥ 1.5 R − h,
+    is negative only for a fold tighter than R = 2h/3 (a real fold: the
+    faces meet at R = h/2). So no point pairs with its neighbours however
+    the membrane bends smoothly; the 2a is the margin that makes this hold
+    whatever the facing and foot tests decide near the cells' edges. A
+    fold is felt once its two sides are more than E apart along the
+    membrane: a fold tighter than a few cells is not resolved by the mesh
+    anyway. A point pairs with its own group only once its gap is below a
+    (one cell: the search is refreshed every step, so a surface approaching
+    faster than a cell per step may be caught a step late, by the band),
+    so that an arm curled over its own base far above it is no pair at all
+    and the pairs of other groups stay as they were. E is a Euclidean
+    distance at rest: along the membrane for the flat robots (and never
+    longer than the distance along it, so it excludes no less), but two
+    parts of one group that face each other at rest closer than E never
+    touch: make them two groups.
 
 Gap and traction.
     For a slave point x (current position) with master point x̄ and the
@@ -54,6 +93,9 @@ CANDIDATES = 8
 ADJACENT = 8
 """Most contact facets kept around one vertex (4 on a structured quadrilateral surface)."""
 
+NEIGHBOURHOOD = 2.0
+"""Within a group, points closer at rest than this many of its largest cells never touch."""
+
 FACING = -0.5
 """A master facet counts only if its normal is within 60° of opposing the slave's normal."""
 
@@ -72,12 +114,15 @@ class SelfContactLaw:
         onset: δ0 > 0, width of the C¹ onset of the ramp (m).
         exclusion: reference distance (m) below which two points never touch.
         band: a slave point deeper than this inside the master (m) is ignored.
+        within: every group is also its own master (its neighbourhood excluded,
+            see the module docstring).
     """
 
     stiffness: float
     onset: float
     exclusion: float
     band: float
+    within: bool = False
 
     def __post_init__(self) -> None:
         # programming errors only: user input is validated by ContactSpec
@@ -103,4 +148,5 @@ def create_self_contact_law(
         onset=spec.self_contact_onset * h,
         exclusion=spec.self_contact_exclusion * h,
         band=0.5 * h,
+        within=spec.self_contact_within,
     )

@@ -28,6 +28,11 @@ Search (closest point, nearest-node form).
     plane equals the gap to the surface for a flat master and is off by
     O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
     Nodes without a master have x̄ at their own position (no gap there).
+    With ``within`` a group is also searched against itself: candidates
+    closer at rest than its own exclusion are skipped before the nearest
+    CANDIDATES are examined, pairs are kept below a gap of one cell, and
+    its nodes take their master nodes around the master vertex found
+    (:mod:`.law`, :meth:`SurfacePairing._pair_own_nodes`).
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
@@ -51,14 +56,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import ufl
-from dolfinx import cpp as _cpp
 from dolfinx import fem, la
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from magfem.config import CaseError
-from magfem.geometry.robot_mesh import RobotMesh, locate
+from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.penalty import penalty_energy, penalty_ramp
 from magfem.mechanics.contacts.self_contact.geometry import facet_normals, facing, inside
 from magfem.mechanics.contacts.self_contact.law import (
@@ -68,12 +72,13 @@ from magfem.mechanics.contacts.self_contact.law import (
     INSIDE,
     SelfContactLaw,
 )
+from magfem.mechanics.contacts.self_contact.surfaces import ContactSurfaces
 from magfem.parallel import JIT_WAIT
 
 __all__ = ["SurfacePairing"]
 
 
-class SurfacePairing:
+class SurfacePairing(ContactSurfaces):
     """The contact surfaces of cell groups, paired slave to master (collective).
 
     Args:
@@ -112,8 +117,12 @@ class SurfacePairing:
         self.law = law
         self.V = V
         names = list(dict.fromkeys(groups))
-        if len(names) < 2:
-            raise CaseError(key, list(groups), "name at least two cell groups that may touch")
+        if len(names) < (1 if law.within else 2):
+            raise CaseError(
+                key,
+                list(groups),
+                "name at least one cell group (two without self_contact_within)",
+            )
         self.groups = names
         facets, facet_label = self._surface_facets(robot, key)
         tags = dmesh.meshtags(domain, self.edim, facets, facet_label + 1)
@@ -126,9 +135,12 @@ class SurfacePairing:
         self.measure = measure(tuple(range(1, len(names) + 1)))
         self._surface_vertices(facets, facet_label)
         self._surface_nodes(facets, facet_label)
+        self._neighbourhoods()
         self.xbar = fem.Function(V, name="self_contact_point")
         self.nbar = fem.Function(self.Vc, name="self_contact_normal")
         self.u_geom = fem.Function(V, name="self_contact_displacement")
+        self._anchor = np.full(self.reference.shape, np.nan)
+        """Per contact vertex paired within its own group: its master vertex at rest (m)."""
         self.vertex_displacement = fem.Function(self.Vc)
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
@@ -139,11 +151,6 @@ class SurfacePairing:
         )
         bs = V.dofmap.index_map_bs
         self.number_rows(bs * int(V.dofmap.index_map.local_range[0]))  # V alone
-
-    @property
-    def edim(self) -> int:
-        """Dimension of the contact entities: the facets of the groups' cells."""
-        return int(self.domain.topology.dim) - 1
 
     def _area_normal(self) -> Any:
         """Outward normal times the area ratio da/dA of the surface at u_geom (UFL, Nanson)."""
@@ -169,123 +176,6 @@ class SurfacePairing:
         self.row = np.rint(numbering.x.array[::bs]).astype(np.int64)
         """Per local V node: global row of its first component in the Newton system."""
         self._gvrow = np.concatenate(self.comm.allgather(self.row[self._vown]))
-
-    def _surface_facets(
-        self, robot: RobotMesh, key: str
-    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
-        """Exterior facets of the groups (sorted) and the group index of each."""
-        domain = self.domain
-        tdim = domain.topology.dim
-        num_cells = domain.topology.index_map(tdim)
-        cell_label = np.full(num_cells.size_local + num_cells.num_ghosts, -1, dtype=np.int32)
-        for i, name in enumerate(self.groups):
-            try:
-                dim, cells = locate(robot, name)
-            except KeyError:
-                raise CaseError(
-                    key, name, "no such group; groups are " + ", ".join(sorted(robot.groups))
-                ) from None
-            if dim != tdim:
-                raise CaseError(key, name, "is not a cell group")
-            cell_label[cells] = i
-        self._num_cells = len(cell_label)
-        return self._label_entities(cell_label)
-
-    def _label_entities(
-        self, cell_label: npt.NDArray[np.int32]
-    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
-        """The contact entities (exterior facets of labelled cells) and their group indices."""
-        topology = self.domain.topology
-        tdim = topology.dim
-        topology.create_connectivity(tdim - 1, tdim)
-        exterior = dmesh.exterior_facet_indices(topology)
-        f2c = topology.connectivity(tdim - 1, tdim)
-        facet_label = np.array([cell_label[f2c.links(f)[0]] for f in exterior], dtype=np.int32)
-        keep = facet_label >= 0
-        facets, facet_label = exterior[keep].astype(np.int32), facet_label[keep]
-        order = np.argsort(facets)
-        return facets[order], facet_label[order]
-
-    def _surface_vertices(
-        self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
-    ) -> None:
-        """Contact data at the vertices (P1 space Vc): groups, facets, facets around each."""
-        domain, gdim = self.domain, self.gdim
-        tdim, fdim = domain.topology.dim, self.edim
-        self.Vc = Vc = fem.functionspace(domain, ("Lagrange", 1, (gdim,)))
-        imap = Vc.dofmap.index_map
-        n_nodes = imap.size_local + imap.num_ghosts
-        self.size_local = imap.size_local
-        self.node_label = np.full(n_nodes, -1, dtype=np.int32)
-        for i in range(len(self.groups)):
-            nodes = fem.locate_dofs_topological(Vc, fdim, facets[facet_label == i])
-            free = nodes[self.node_label[nodes] < 0]
-            self.node_label[free] = i
-        self.nodes = np.flatnonzero(self.node_label >= 0).astype(np.int32)
-        vmap0 = domain.topology.index_map(0)
-        vertex_to_dof = np.full(vmap0.size_local + vmap0.num_ghosts, -1, dtype=np.int32)
-        domain.topology.create_connectivity(tdim, 0)
-        c2v = domain.topology.connectivity(tdim, 0).array.reshape(self._num_cells, -1)
-        vertex_to_dof[c2v] = Vc.dofmap.list
-        domain.topology.create_connectivity(fdim, 0)
-        f2v = domain.topology.connectivity(fdim, 0)
-        self.facet_dofs = np.array([vertex_to_dof[f2v.links(f)] for f in facets], dtype=np.int32)
-        if self.facet_dofs.size == 0:  # no contact entity on this rank
-            vertices = _cpp.mesh.cell_num_vertices(domain.topology.entity_types[fdim][0])
-            self.facet_dofs = self.facet_dofs.reshape(0, vertices)
-        slot = np.zeros(n_nodes, dtype=np.int32)
-        self.adjacent = np.full((n_nodes, ADJACENT), -1, dtype=np.int32)
-        for f, dofs in enumerate(self.facet_dofs):
-            for d in dofs:
-                if slot[d] < ADJACENT:
-                    self.adjacent[d, slot[d]] = f
-                    slot[d] += 1
-        self.reference = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
-        self.partner = np.full(n_nodes, -1, dtype=np.int32)
-        self.gap = np.zeros(n_nodes)
-        self._normal_c = fem.Function(Vc)  # unit outward nodal normals at the contact vertices
-
-    def _surface_nodes(
-        self, facets: npt.NDArray[np.int32], facet_label: npt.NDArray[np.int32]
-    ) -> None:
-        """The displacement nodes of the surfaces (vertices and higher-order nodes of V)."""
-        V, gdim = self.V, self.gdim
-        fdim = self.edim
-        vmap = V.dofmap.index_map
-        self.vlabel = np.full(vmap.size_local + vmap.num_ghosts, -1, dtype=np.int32)
-        for i in range(len(self.groups)):
-            vn = fem.locate_dofs_topological(V, fdim, facets[facet_label == i])
-            self.vlabel[vn[self.vlabel[vn] < 0]] = i
-        self.vnodes = np.flatnonzero(self.vlabel >= 0).astype(np.int32)
-        self.vreference = V.tabulate_dof_coordinates()[:, :gdim].copy()
-        self.facet_vnodes = self._entity_nodes(facets)
-        self._normal_v = fem.Function(V)  # nodal normals and n̄, interpolated to the V nodes
-        self._nbar_v = fem.Function(V)
-        self.vpartner = np.full(self.vlabel.size, -1, dtype=np.int64)
-        self._lift = np.zeros((self.vlabel.size, gdim))  # offset × unit n̄ per node (m)
-        """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
-        # contact nodes owned here, in the order of every gather (search and coupling)
-        self._vown = self.vnodes[self.vnodes < vmap.size_local]
-        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
-        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
-
-    def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
-        """The V nodes on each contact facet (closure dofs), (facets, nodes per facet)."""
-        domain, V = self.domain, self.V
-        tdim, fdim = domain.topology.dim, self.edim
-        domain.topology.create_connectivity(tdim, fdim)
-        c2f = domain.topology.connectivity(tdim, fdim)
-        f2c = domain.topology.connectivity(fdim, tdim)
-        layout = V.dofmap.dof_layout
-        closure = [
-            np.asarray(layout.entity_closure_dofs(fdim, i))
-            for i in range(len(c2f.links(0)) if self._num_cells else 0)
-        ]
-        rows = []
-        for f in facets:
-            c = f2c.links(f)[0]
-            rows.append(V.dofmap.cell_dofs(c)[closure[int(np.flatnonzero(c2f.links(c) == f)[0])]])
-        return np.array(rows, dtype=np.int32).reshape(len(facets), -1)
 
     # --- the law at a point (UFL) ------------------------------------------------------------
 
@@ -349,47 +239,86 @@ class SurfacePairing:
         nbar = np.zeros_like(x)
         partner = np.full(nodes.size, -1, dtype=np.int32)
         gap = np.zeros(nodes.size)
-        law = self.law
+        anchor = np.zeros(nodes.size, dtype=np.int64)
+        master = (gx, gn, glabel, gref, gc)
         for j in range(len(self.groups)):
-            in_j = glabel == j
-            slaves = np.flatnonzero(label != j)
-            if not in_j.any() or slaves.size == 0:
-                continue
-            mx, mn, mref, mc = gx[in_j], gn[in_j], gref[in_j], gc[in_j]
-            k = min(CANDIDATES, len(mx))
-            dist, idx = cKDTree(mx).query(x[slaves], k=k)
-            dist, idx = dist.reshape(slaves.size, k), idx.reshape(slaves.size, k)
-            # every facet around each candidate: facing, gap to its plane, projection inside it
-            around = mn[idx]  # (slaves, k, ADJACENT, gdim)
-            d = x[slaves][:, None, :] - mx[idx]
-            dots, g, around = facing(n[slaves], d, around, self.offset, self.two_sided)
-            foot = x[slaves][:, None, None, :] - (g + self.offset)[..., None] * around
-            ok = (
-                (dots < FACING)
-                & (g > -law.band)
-                & self._far_in_reference(ref[slaves], mref[idx], np.flatnonzero(in_j)[idx], j)
-                & inside(foot, mc[idx], INSIDE)
-            )
-            # per candidate, of its valid facets the one that most opposes the slave's normal
-            choice = np.argmin(np.where(ok, dots, np.inf), axis=-1)
-            valid = ok.any(axis=-1)
-            normal = np.take_along_axis(around, choice[..., None, None], axis=2)[:, :, 0, :]
-            g = np.take_along_axis(g, choice[..., None], axis=2)[..., 0]
-            has = valid.any(axis=1)
-            first = np.argmax(valid, axis=1)
-            rows = np.arange(slaves.size)
-            better = has & (dist[rows, first] < best_dist[slaves])
-            s = slaves[better]
-            best_dist[s] = dist[rows, first][better]
-            nbar[s] = normal[rows, first][better]
-            partner[s] = j
-            gap[s] = g[rows, first][better]
+            for own in (False, True):
+                slaves = np.flatnonzero((label == j) == own)
+                if slaves.size == 0 or not (glabel == j).any() or (own and not self.law.within):
+                    continue
+                dist, normal, g, m = self._match(x[slaves], n[slaves], ref[slaves], master, j, own)
+                better = dist < best_dist[slaves]
+                s = slaves[better]
+                best_dist[s] = dist[better]
+                nbar[s] = normal[better]
+                partner[s] = j
+                gap[s] = g[better]
+                anchor[s] = m[better]
         self.nbar.x.array.reshape(-1, gdim)[nodes] = nbar
         self.nbar.x.scatter_forward()
         self.partner[nodes] = partner
         self.gap[nodes] = gap
+        self._anchor[nodes] = np.where((partner == label)[:, None], gref[anchor], np.nan)
         self._pair_nodes()
         self.place(self.u_geom.x.array)
+
+    def _match(
+        self,
+        x: npt.NDArray[Any],
+        n: npt.NDArray[Any],
+        ref: npt.NDArray[Any],
+        master: tuple[npt.NDArray[Any], ...],
+        j: int,
+        own: bool,
+    ) -> tuple[npt.NDArray[np.float64], ...]:
+        """The facet of master group j that each slave vertex touches.
+
+        Args:
+            x, n, ref: (slaves, gdim) current positions, unit normals, reference positions.
+            master: the gathered vertices (positions, normals of the facets around,
+                groups, reference positions, corners of the facets around).
+            j: the master group.
+            own: the slaves belong to group j (its own neighbourhood is excluded).
+
+        Returns:
+            per slave the distance to the paired master vertex (m; inf: none), n̄, the gap
+            and the master vertex (index in the gathered vertices).
+        """
+        gx, gn, glabel, gref, gc = master
+        in_j = np.flatnonzero(glabel == j)
+        mx, mn, mref, mc = gx[in_j], gn[in_j], gref[in_j], gc[in_j]
+        law = self.law
+        limit = self.own_exclusion[j] if own else law.exclusion
+        k = min(CANDIDATES + (self._crowd[j] if own else 0), len(mx))
+        dist, idx = cKDTree(mx).query(x, k=k)
+        dist, idx = dist.reshape(len(x), k), idx.reshape(len(x), k)
+        far = np.ones(idx.shape, dtype=bool)
+        if own:  # the nearest CANDIDATES outside the slave's own neighbourhood
+            far = np.linalg.norm(ref[:, None, :] - mref[idx], axis=-1) >= limit
+            keep = np.argsort(~far, axis=1, kind="stable")[:, : min(CANDIDATES, k)]
+            dist, idx, far = (np.take_along_axis(a, keep, axis=1) for a in (dist, idx, far))
+        # every facet around each candidate: facing, gap to its plane, projection inside it
+        around = mn[idx]  # (slaves, k, ADJACENT, gdim)
+        d = x[:, None, :] - mx[idx]
+        dots, g, around = facing(n, d, around, self.offset, self.two_sided)
+        foot = x[:, None, None, :] - (g + self.offset)[..., None] * around
+        ok = (
+            far[..., None]
+            & (dots < FACING)
+            & (g > -law.band)
+            & self._far_in_reference(ref, mref[idx], in_j[idx], j, limit)
+            & inside(foot, mc[idx], INSIDE)
+        )
+        if own:  # within a group, only surfaces that may close the gap within about a step
+            ok &= g < self._diameter[j]
+        # per candidate, of its valid facets the one that most opposes the slave's normal
+        choice = np.argmin(np.where(ok, dots, np.inf), axis=-1)
+        valid = ok.any(axis=-1)
+        normal = np.take_along_axis(around, choice[..., None, None], axis=2)[:, :, 0, :]
+        g = np.take_along_axis(g, choice[..., None], axis=2)[..., 0]
+        rows, first = np.arange(len(x)), np.argmax(valid, axis=1)
+        best = np.where(valid.any(axis=1), dist[rows, first], np.inf)
+        return best, normal[rows, first], g[rows, first], in_j[idx[rows, first]]
 
     def _far_in_reference(
         self,
@@ -397,6 +326,7 @@ class SurfacePairing:
         candidate_ref: npt.NDArray[np.float64],
         candidates: npt.NDArray[np.int64],
         group: int,
+        limit: float,
     ) -> npt.NDArray[np.bool_]:
         """Whether slave points may touch the facets around candidate master vertices.
 
@@ -405,12 +335,13 @@ class SurfacePairing:
             candidate_ref: (slaves, k, gdim) the candidates' reference positions (m).
             candidates: (slaves, k) the candidates' indices in the gathered vertices.
             group: the master group.
+            limit: the exclusion distance (m).
 
         Returns:
-            (slaves, k, ADJACENT): the candidate lies at least the exclusion
-            distance from the slave in the reference configuration.
+            (slaves, k, ADJACENT): the candidate lies at least ``limit`` from the
+            slave in the reference configuration.
         """
-        far = np.linalg.norm(ref[:, None, :] - candidate_ref, axis=-1) >= self.law.exclusion
+        far = np.linalg.norm(ref[:, None, :] - candidate_ref, axis=-1) >= limit
         return np.repeat(far[..., None], ADJACENT, axis=-1)
 
     def _pair_nodes(self) -> None:
@@ -423,7 +354,9 @@ class SurfacePairing:
         opposite face of the membrane a thickness away): on matching meshes a
         slave edge node faces the master's edge node, so x̄ is the master's own
         interpolation of its surface and the reaction is distributed like the
-        slave's traction.
+        slave's traction. A node of the master group itself (``within``)
+        takes it among the master nodes around the master vertex its facet's
+        vertices found (:meth:`_pair_own_nodes`).
         """
         gdim = self.gdim
         disp = self.u_geom.x.array.reshape(-1, gdim)
@@ -451,6 +384,10 @@ class SurfacePairing:
         for j in range(len(self.groups)):
             slaves = np.flatnonzero(group == j)
             in_j = np.flatnonzero(self._gvlabel == j)
+            if self.law.within:  # a group folded onto itself
+                own = slaves[self.vlabel[slaves] == j]
+                self._pair_own_nodes(j, own, position, mnormal, nbar, here)
+                slaves = slaves[self.vlabel[slaves] != j]
             if slaves.size == 0 or in_j.size == 0:
                 continue
             k = min(CANDIDATES, in_j.size)
@@ -464,6 +401,43 @@ class SurfacePairing:
             first = np.argmax(facing, axis=1)
             self.vpartner[slaves[has]] = idx[np.arange(slaves.size), first][has]
         self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
+
+    def _pair_own_nodes(
+        self,
+        j: int,
+        slaves: npt.NDArray[np.int64],
+        position: npt.NDArray[Any],
+        mnormal: npt.NDArray[Any],
+        nbar: npt.NDArray[Any],
+        here: npt.NDArray[Any],
+    ) -> None:
+        """Pair nodes of group j paired with group j itself: among the group's nodes within
+        one cell (at rest) of the master vertex found by a vertex of the node's facets, the
+        nearest facing one (its own surface nearby is nearer than the fold's other side).
+
+        Args:
+            j: the group.
+            slaves: local V nodes of group j whose facets' vertices paired with group j.
+            position, mnormal: current positions and unit normals of the gathered nodes.
+            nbar, here: per local V node, n̄ and the current position.
+        """
+        if slaves.size == 0 or self.facet_vnodes.shape[0] == 0:
+            return
+        corners = self._anchor[self.facet_dofs]  # (facets, vertices, gdim)
+        paired = np.isfinite(corners[..., 0])
+        facet_anchor = corners[np.arange(len(corners)), np.argmax(paired, axis=1)]
+        anchor = np.full((self.vlabel.size, self.gdim), np.nan)
+        anchor[self.facet_vnodes.ravel()] = np.repeat(facet_anchor, self.facet_vnodes.shape[1], 0)
+        slaves = slaves[np.isfinite(anchor[slaves, 0])]
+        tree, index = self._node_tree[j]
+        patches = tree.query_ball_point(anchor[slaves], r=self._diameter[j])
+        for s, patch in zip(slaves, patches, strict=True):
+            c = index[np.asarray(patch, dtype=np.int64)]
+            dots = mnormal[c] @ nbar[s]
+            bound = -FACING * max(float(np.linalg.norm(nbar[s])), 1e-300)
+            c = c[(np.abs(dots) if self.two_sided else dots) > bound]
+            if c.size:
+                self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
 
     def place(self, displacement: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
         """Move x̄ to the master nodes at ``displacement`` (local V array, m) (collective).

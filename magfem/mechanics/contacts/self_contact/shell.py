@@ -28,7 +28,8 @@ normal by O(h γ²); for two plates facing each other the gap is exact to
 O(rotation²) in the angle between d and n. A point whose mid-surface has
 crossed the master's (penetration beyond h) is paired with the other face
 at the next search: the penalty is a tolerance of a fraction of h, not a
-barrier. A group never contacts itself (a membrane folding onto itself).
+barrier. A group folded onto itself (``self_contact_within``) touches itself the same
+way, its own neighbourhood excluded (:mod:`.law`).
 """
 
 from __future__ import annotations
@@ -115,9 +116,10 @@ class ShellPairing(SurfacePairing):
         candidate_ref: npt.NDArray[np.float64],
         candidates: npt.NDArray[np.int64],
         group: int,
+        limit: float,
     ) -> npt.NDArray[np.bool_]:
-        """Cells of the master group none of whose corners lies within the exclusion distance
-        of the slave in the reference configuration.
+        """Cells of the master group none of whose corners lies within ``limit`` (m) of the
+        slave in the reference configuration.
 
         Where two groups meet along an edge (a fin on the body), a slave point on
         that edge lies in the plane of the other group's cells there (g = −h):
@@ -129,7 +131,7 @@ class ShellPairing(SurfacePairing):
         label = self._gadjacent_label[candidates]  # (slaves, k, ADJACENT)
         corners = self._gadjacent_corners[candidates]  # (slaves, k, ADJACENT, corners, 3)
         distance = np.linalg.norm(corners - ref[:, None, None, None, :], axis=-1).min(axis=-1)
-        return (label == group) & (distance >= self.law.exclusion)
+        return (label == group) & (distance >= limit)
 
     def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
         """The V nodes of each contact cell, (cells, nodes per cell)."""
