@@ -32,6 +32,8 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from magfem.case import Case, parse_case
+from magfem.geometry.gmshio import build_mesh
+from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.penalty import create_penalty_law
 from magfem.mechanics.observers import TIP_OFFSET
 from magfem.mechanics.simulation import Simulation
@@ -700,3 +702,57 @@ def magnetic_pendulum_error(
     if h["tilt_about_y"].max() < math.radians(110):
         raise AssertionError("the plate did not swing through 2 phi_B")
     return float(np.max(np.abs(h["tilt_about_y"] - exact)))
+
+
+def gmsh_robot(
+    builder: Any, comm: MPI.Comm, *, gdim: int, name: str, model: str, thickness: float, area: float
+) -> RobotMesh:
+    """The RobotMesh of a gmsh ``builder`` (tests that build their own geometry): its physical
+    groups as the robot's groups, no arms, ``model`` (``"surface"``, ``"strip"``, ...) of
+    ``thickness`` (m) and ``area`` (m²), collective."""
+    data = build_mesh(builder, comm, gdim=gdim, name=name)
+    return RobotMesh(
+        mesh=data.mesh,
+        cell_tags=data.cell_tags,
+        facet_tags=data.facet_tags,
+        groups={k: (int(v[0]), int(v[1])) for k, v in data.physical_groups.items()},
+        arms=(),
+        model=model,
+        thickness=thickness,
+        min_quality=1.0,
+        num_cells=0,
+        area=area,
+    )
+
+
+def contact_residual(contact: Any, state: Any) -> Any:
+    """The PETSc residual vector of a contact's own Newton terms alone at ``state``."""
+    b = state.duplicate()
+    b.set(0.0)
+    contact.add_residual(state, b)
+    return b
+
+
+def contact_jacobian_mismatch(
+    contact: Any, A: Any, x: Any, d: Any, bc_dofs: Any, eps: float = 1e-3
+) -> tuple[float, Any]:
+    """Relative mismatch ‖(R(x + εd) − R(x − εd))/(2ε) − J d‖ / ‖J d‖ of a contact's Newton
+    terms (collective), and J d.
+
+    ``A`` is zeroed and gets the contact's Jacobian at ``x``; ``d`` is the direction (its
+    Dirichlet entries ``bc_dofs`` zero, whose rows the Jacobian leaves to the solver).
+    Central differences are exact to O(ε²) while the step crosses no kink of the ramp.
+    """
+    A.zeroEntries()
+    contact.add_jacobian(x, A)
+    Jd = A.createVecLeft()
+    A.mult(d, Jd)
+    plus, minus = x.copy(), x.copy()
+    plus.axpy(eps, d)
+    minus.axpy(-eps, d)
+    fd = contact_residual(contact, plus)
+    fd.axpy(-1.0, contact_residual(contact, minus))
+    fd.scale(1.0 / (2.0 * eps))
+    fd.array[bc_dofs] = 0.0
+    fd.axpy(-1.0, Jd)
+    return fd.norm() / Jd.norm(), Jd
