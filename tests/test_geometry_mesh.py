@@ -230,6 +230,16 @@ def test_a_size_gmsh_cannot_mesh_in_one_cell_type_names_the_key(comm, monkeypatc
     assert err.value.key == "mesh.size"
 
 
+def test_poor_order_two_elements_advise_order_one(comm):
+    """The five-arm star's order-2 quadrilaterals come out nearly inverted where its arms meet
+    the hub (minimum scaled Jacobian ~1e-3 at every size): a smaller size does not help there,
+    order 1 does, and the error says so."""
+    with pytest.raises(CaseError, match=r"mesh\.order = 1") as err:
+        create_robot_mesh(five_arm_star(), meshspec(model="surface", size=5e-4, order=2), comm)
+    assert err.value.key == "mesh.size"
+    create_robot_mesh(five_arm_star(), meshspec(model="surface", size=5e-4, order=1), comm)
+
+
 @pytest.mark.parametrize("shape", ["rectangle", "bow_tie"])
 def test_tip_size_meshes_every_piece(shape, comm):
     """``tip_size`` = size/4 at size 2 mm (rectangle) and 1 mm (bow tie): a curve far from

@@ -425,10 +425,14 @@ def _check_cells(gmsh: Any, spec: MeshSpec, tdim: int, info: dict[str, Any]) -> 
     info["num_cells"] = len(tags[0])
     info["min_quality"] = float(np.min(quality))
     if info["min_quality"] < MIN_QUALITY:
+        advice = (
+            "use mesh.order = 1 or a smaller mesh.size (order-2 elements follow the curved "
+            "outline and can come out nearly inverted at its corners)"
+            if spec.order == 2
+            else "use a smaller mesh.size"
+        )
         raise MeshQualityError(
-            f"worst element {QUALITY_METRIC} = {info['min_quality']:.3g} < {MIN_QUALITY}; "
-            "use a smaller mesh.size (curved outlines with order 2 need several "
-            "elements per radius)"
+            f"worst element {QUALITY_METRIC} = {info['min_quality']:.3g} < {MIN_QUALITY}; {advice}"
         )
 
 
