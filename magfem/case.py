@@ -15,7 +15,7 @@ table           dataclass                               owner module
 ``[contact]``   ``magfem.mechanics.spec.ContactSpec``   mechanics
 ``[environment]`` ``magfem.mechanics.spec.EnvironmentSpec`` mechanics
 ``[initial]``   ``magfem.mechanics.pose.InitialSpec``   mechanics
-``[fluid]``     ``magfem.mechanics.spec.FluidSpec``     mechanics
+``[fluid]``     ``magfem.mechanics.fluid_spec.FluidSpec`` mechanics
 ``[output]``    ``magfem.mechanics.spec.OutputSpec``    mechanics
 ``[[loads]]``   a spec class per ``kind``               ``magfem.mechanics.loads``
 ``[[contacts]]`` a spec class per ``kind``              ``magfem.mechanics.contacts``
@@ -58,12 +58,12 @@ from magfem.config import (
 from magfem.field.spec import FieldSpec
 from magfem.geometry.spec import MeshSpec, RobotSpec, check_mesh_for_robot
 from magfem.mechanics.contacts import ContactKindSpec
+from magfem.mechanics.fluid_spec import FluidSpec
 from magfem.mechanics.loads import LoadSpec
 from magfem.mechanics.pose import InitialSpec
 from magfem.mechanics.spec import (
     ContactSpec,
     EnvironmentSpec,
-    FluidSpec,
     MaterialSpec,
     OutputSpec,
     SolverSpec,

@@ -206,7 +206,10 @@ def test_mpi_shell_run_reproduces_serial_angle_history(comm):
 @pytest.mark.parametrize(
     ("tables", "key"),
     [
-        ({"contact": {"ground": True, "self_contact": True}}, "contact.self_contact_groups"),
+        (  # one arm: no other group to touch unless it may touch itself
+            {"contact": {"ground": True, "self_contact": True, "self_contact_within": False}},
+            "contact.self_contact_groups",
+        ),
         ({"contact": {"ground": True, "surfaces": ["tip"]}}, "contact.surfaces"),
     ],
 )

@@ -47,7 +47,7 @@ from magfem.mechanics.loads.hydrodynamics import (
     FluidCoefficients,
 )
 from magfem.mechanics.models.base import Face, Model, sum_work
-from magfem.mechanics.spec import FluidSpec
+from magfem.mechanics.fluid_spec import FluidSpec
 
 __all__ = ["REYNOLDS_FLOOR", "FluidLoad"]
 

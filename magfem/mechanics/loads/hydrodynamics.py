@@ -50,7 +50,7 @@ acceleration, Re = |v_n| b/ν. The terms and where they come from:
 * **Buoyancy**: the hydrostatic pressure on the closed body, −ρ g per unit
   of its volume.
 
-The ``[fluid] medium`` presets (:data:`magfem.mechanics.spec.FLUID_MEDIA`):
+The ``[fluid] medium`` presets (:data:`magfem.mechanics.fluid_spec.FLUID_MEDIA`):
 water at 20 °C (ρ = 998.2 kg/m³, μ = 1.002 mPa·s) and air at 20 °C,
 101.325 kPa (ρ = 1.204 kg/m³, μ = 18.13 µPa·s), from the CRC Handbook of
 Chemistry and Physics.
