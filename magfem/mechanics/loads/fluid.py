@@ -38,6 +38,7 @@ import ufl
 from dolfinx import fem
 
 from magfem.config import CaseError
+from magfem.mechanics.fluid_spec import FluidSpec
 from magfem.mechanics.loads.base import Load
 from magfem.mechanics.loads.hydrodynamics import (
     BLASIUS,
@@ -47,7 +48,6 @@ from magfem.mechanics.loads.hydrodynamics import (
     FluidCoefficients,
 )
 from magfem.mechanics.models.base import Face, Model, sum_work
-from magfem.mechanics.fluid_spec import FluidSpec
 
 __all__ = ["REYNOLDS_FLOOR", "FluidLoad"]
 
