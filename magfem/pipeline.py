@@ -172,6 +172,7 @@ def build_simulation(
         depth=depth,
         center=tuple(case.robot.position),  # type: ignore[arg-type]
         rotation=tuple(map(tuple, pose)) if case.initial.angle else None,
+        turn_axis=case.mesh.turn_axis,
     )
     model_class = MODELS.get(case.mesh.model, "mesh.model")
     inputs = ModelInputs(robot_mesh, case.material, case.solver, case.time, case.environment, body)

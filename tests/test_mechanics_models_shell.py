@@ -15,14 +15,17 @@ from typing import Any
 
 import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
 from test_mechanics_simulation import (
     BASE as STRIP_BASE,  # the same arm and drive as the strip tests
 )
 
 from magfem.case import parse_case
-from magfem.config import CaseError
+from magfem.config import CaseError, from_table
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
+from magfem.geometry.spec import MeshSpec
+from magfem.mechanics.models.shell import director, director_jacobian, turn_axis_frame
 from magfem.pipeline import build_simulation
 from verification import references as ref
 from verification import setups as vc
@@ -244,3 +247,36 @@ def test_shell_fixed_point_holds_the_nodes_within_its_radius(comm):
     assert np.all(u[held] == 0.0)
     moved = comm.allreduce(float(np.abs(u).max(initial=0.0)), op=MPI.MAX)
     assert moved > 1e-6, moved  # the field turns the arm about the held patch
+
+
+@pytest.mark.parametrize("turn", [0.0, 90.0, 180.0, 270.0])
+def test_turn_axis_frame_keeps_a_roll_about_it_regular(turn):
+    """A plate along x rolled by φ about x (a propeller): its director R_x(φ) e_z. With the
+    default frame (α = 0) the roll is θ₀ = φ, and at 90° ∂d/∂θ₁ vanishes (the director's
+    Jacobian loses rank: the angles cannot follow); with ``turn_axis = [1, 0, 0]`` the
+    frame's second axis is x, the roll is θ₁ alone, and the Jacobian keeps orthonormal
+    columns at every φ (smallest singular value exactly 1)."""
+    phi = math.radians(turn)
+    rolled = np.array([0.0, -math.sin(phi), math.cos(phi)])  # R_x(φ) e_z
+    alpha = turn_axis_frame([1.0, 0.0, 0.0])
+    assert alpha == pytest.approx(-math.pi / 2)
+    theta = ufl.as_vector([0.0, phi])
+    d = director(theta, alpha)
+    assert np.allclose([float(d[i]) for i in range(3)], rolled, atol=1e-15)
+    J = director_jacobian(theta, alpha)
+    values = np.array([[float(J[i, j]) for j in range(2)] for i in range(3)])
+    assert np.linalg.svd(values, compute_uv=False)[-1] == pytest.approx(1.0, abs=1e-15)
+    default = director_jacobian(ufl.as_vector([phi, 0.0]))
+    values = np.array([[float(default[i, j]) for j in range(2)] for i in range(3)])
+    smallest = np.linalg.svd(values, compute_uv=False)[-1]
+    assert smallest == pytest.approx(abs(math.cos(phi)), abs=1e-15)  # 0 at 90° and 270°
+
+
+@pytest.mark.parametrize(
+    ("mesh", "problem"),
+    [({"model": "solid"}, "surface-model"), ({"model": "surface"}, "x-y plane")],
+)
+def test_turn_axis_rejects_other_models_and_tilted_axes(mesh, problem):
+    with pytest.raises(CaseError, match=problem) as err:
+        from_table(MeshSpec, {"size": "1 mm", "turn_axis": [1, 0, 0.5], **mesh}, "mesh")
+    assert err.value.key == "mesh.turn_axis"

@@ -33,6 +33,7 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -202,6 +203,14 @@ class MeshSpec:
         doc="how the clamp patch holds the membrane: bonded (its bottom face glued) or rigid "
         "(held through the thickness up to the patch's edge)",
     )
+    turn_axis: tuple[float, ...] | None = vector(
+        None,
+        "",
+        nonzero=True,
+        doc="surface model: the in-plane axis [x, y, 0] about which the director turns without "
+        "limit (default: each arm's cross axis, so arms bend past 270 deg); the angles are "
+        "singular for a turn of 90 deg about the in-plane axis across it",
+    )
 
     def __post_init__(self) -> None:
         if self.tip_size is not None and self.tip_size > self.size:
@@ -220,6 +229,11 @@ class MeshSpec:
             )
         if self.model == "surface" and self.layers != 1:
             raise CaseError("layers", self.layers, "must be 1 for the surface model")
+        if self.turn_axis is not None:
+            if self.model != "surface":
+                raise CaseError("turn_axis", list(self.turn_axis), "is a surface-model key")
+            if abs(self.turn_axis[2]) > 1e-12 * math.hypot(*self.turn_axis):
+                raise CaseError("turn_axis", list(self.turn_axis), "must lie in the x-y plane")
 
 
 def check_mesh_for_robot(robot: RobotSpec, mesh: MeshSpec) -> None:

@@ -73,11 +73,14 @@ class BodySetup:
             bending frame of radial robots turns about it.
         rotation: the rotation (3×3, rows) of the body's initial placement
             (``[initial]``), or None: the shell measures its directors from it.
+        turn_axis: the in-plane axis the shell's director turns about without limit
+            (``[mesh] turn_axis``), or None: the shell's own choice.
     """
 
     depth: float = 1.0
     center: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rotation: tuple[tuple[float, ...], ...] | None = None
+    turn_axis: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)

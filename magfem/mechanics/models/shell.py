@@ -15,7 +15,10 @@ beam-like robots (arms along ±x: θ₁ bends an arm about y, without limit, so
 the tip can turn past 270°) and the polar angle about the robot's centre for
 radial robots (each arm bends about its own tangential axis). The angles are
 singular only where d lies along the frame's second axis (θ₀ = ±90°: an arm
-twisted by 90° about its own axis), which the robots here never reach. A
+twisted by 90° about its own axis). ``[mesh] turn_axis`` a sets a constant
+frame whose second axis is a instead, α = atan2(−a_x, a_y): turns about a are
+then unlimited (a propeller rolling about its long axis), and the angles are
+singular for a turn of 90° about the in-plane axis across a. A
 free body (nothing holds it) has a constant frame angle instead
 (:func:`free_frame_roll`): its hub tilts as a whole, which the polar frame
 cannot represent (the angles of a rigid tilt would wind about the centre);
@@ -108,6 +111,7 @@ __all__ = [
     "director_jacobian",
     "free_frame_roll",
     "shell_energy_density",
+    "turn_axis_frame",
 ]
 
 SHEAR_CORRECTION = 5.0 / 6.0
@@ -226,15 +230,27 @@ def free_frame_roll(directions: Sequence[Sequence[float]]) -> float:
     return float(grid[int(np.argmin(worst + 1e-9 * np.arange(grid.size)))])
 
 
-def _frame_angle(robot: RobotMesh, center: Sequence[float], free: bool) -> Any | None:
-    """α(X): None when every arm runs along ±x; for a free body the constant of
-    :func:`free_frame_roll` (None when 0); else the polar angle about ``center``.
+def turn_axis_frame(axis: Sequence[float]) -> float:
+    """The constant frame angle α (rad) whose second axis R_α e_y is the in-plane ``axis``:
+    the director turns about it without limit."""
+    return math.atan2(-float(axis[0]), float(axis[1]))
+
+
+def _frame_angle(
+    robot: RobotMesh, center: Sequence[float], free: bool, turn_axis: Sequence[float] | None
+) -> Any | None:
+    """α(X): with ``turn_axis`` a the constant that turns the frame's second axis onto a,
+    atan2(−a_x, a_y) (None when 0); else None when every arm runs along ±x; for a free body
+    the constant of :func:`free_frame_roll` (None when 0); else the polar angle about ``center``.
 
     The polar frame turns with each arm of a robot whose hub is held; a free
     hub tilts as a whole, which the polar frame would make a vortex of the
     angles about the centre (θ ∝ (cos α, −sin α) for a rigid tilt): a
     singular field P2 cannot carry.
     """
+    if turn_axis is not None:
+        alpha = turn_axis_frame(turn_axis)
+        return None if alpha == 0.0 else alpha
     if all(abs(float(a.direction[1])) < 1e-12 for a in robot.arms):
         return None
     if free:
@@ -306,7 +322,7 @@ class ShellModel(Model):
         self.displacement_bcs, angle_bcs = self._supports(inputs.environment, Vu, Vt)
         self.bcs = self.displacement_bcs + angle_bcs
         self.free_body = is_free(self.displacement_bcs, domain.comm)
-        self.frame = _frame_angle(robot, inputs.body.center, self.free_body)
+        self.frame = _frame_angle(robot, inputs.body.center, self.free_body, inputs.body.turn_axis)
         kin = ShellKinematics(u, theta, self.frame, self.pose)
         self.strain_metrics = [kin.face_metric(-1.0, t), kin.face_metric(1.0, t)]
 
