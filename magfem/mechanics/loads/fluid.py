@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import fem
+from ufl.algorithms import expand_derivatives
 
 from magfem.config import CaseError
 from magfem.mechanics.loads.base import Load
@@ -118,9 +119,40 @@ class FluidLoad(Load):
     def inertia(
         self, model: Model, state: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
     ) -> list[ufl.Form]:
-        faces = model.faces(state, rates, self.surfaces)
-        acceleration = model.displacement(accelerations)
-        return sum_work(faces, [-self.added_mass_traction(f, acceleration) for f in faces])
+        """Lagrange's equation of the added mass's kinetic energy T (module docstring).
+
+        d/dt ∂T/∂q̇ [w] − ∂T/∂q [w], derived at placeholder Functions (q̂, q̂̇, q̂̈)
+        and evaluated at the integrator's stage values ``state``, ``rates``,
+        ``accelerations`` by replacement.
+        """
+        q = [fem.Function(f.function_space) for f in model.unknowns]
+        r = [fem.Function(f.function_space) for f in model.unknowns]
+        a = [fem.Function(f.function_space) for f in model.unknowns]
+        kinetic = self.added_mass_energy(model.faces(q, r, self.surfaces))
+        forms = []
+        for qi, ri, wi in zip(q, r, model.tests, strict=True):
+            momentum = ufl.derivative(kinetic, ri, wi)
+            rate = sum(
+                ufl.derivative(momentum, qj, rj) + ufl.derivative(momentum, rj, aj)
+                for qj, rj, aj in zip(q, r, a, strict=True)
+            )
+            form = expand_derivatives(rate - ufl.derivative(kinetic, qi, wi))
+            mapping = dict(zip(q + r + a, [*state, *rates, *accelerations], strict=True))
+            forms.append(ufl.replace(form, mapping))
+        return forms
+
+    def added_mass_energy(self, faces: Sequence[Face]) -> Any:
+        """T = Σ_faces ∫ ¼ m_a (v·N)²/|N| dA: the fluid's kinetic energy (J; J/m for strips).
+
+        N = n da/dA: each face carries half the plate's m_a (v·n)² per current area.
+        """
+        total: Any = 0
+        for face in faces:
+            area, _ = self._frame(face)
+            vn_area = ufl.dot(face.velocity - self.current, face.normal)
+            density = 0.25 * self.coefficients.added_mass * vn_area**2 / area
+            total = total + density * face.measure
+        return total
 
     def ramp(self, factor: float) -> bool:
         if not np.any(self.full_gravity):
