@@ -13,8 +13,6 @@ times the depth:
   the skin drag takes;
 * ``fluid_power`` (W): the power the body gives the fluid, and
   ``fluid_work`` (J) its time integral (trapezoidal rule over the samples);
-* ``fluid_kinetic`` (J): the kinetic energy of the added mass, ∫ ½ m_a v_n² da
-  (fluid_work − fluid_kinetic is what the fluid dissipated: never negative);
 * ``fluid_reynolds``: Re = v_rms b/ν of the root-mean-square normal speed
   over the wetted faces;
 * ``cost_of_transport``: fluid_work / (m g |swim_distance|), the energy given
@@ -119,7 +117,6 @@ class Swimming(Observer):
             "fluid_friction",
             "fluid_power",
             "fluid_work",
-            "fluid_kinetic",
             "fluid_reynolds",
             "cost_of_transport",
             *(["roll", "pitch"] if self.axes is not None else []),
@@ -153,8 +150,7 @@ class Swimming(Observer):
             "fluid_power": power,
             "fluid_work": self.work,
         }
-        forces = ("fluid_thrust", "fluid_friction", *(f"fluid_force_{k}" for k in self.labels))
-        for key in ("fluid_kinetic", *forces):
+        for key in ("fluid_thrust", "fluid_friction", *(f"fluid_force_{k}" for k in self.labels)):
             row[key] = fluid[key] * self.depth
         rms = math.sqrt(max(fluid["fluid_normal_speed2"], 0.0) / fluid["fluid_area"])
         row["fluid_reynolds"] = rms * self.chord / self.nu
