@@ -135,11 +135,7 @@ def test_shell_coupled_linearisation_matches_finite_differences(comm):
     u_rows[:n_u] = True
 
     A = problem.A
-    rng = np.random.default_rng(11 + comm.rank)
-    d = x.duplicate()
-    d.setArray(rng.standard_normal(d.getLocalSize()))
-    d.array[:n_u] *= 1e-6  # m
-    d.array[bc_dofs] = 0.0
+    d = vc.contact_direction(x, 11 + comm.rank, bc_dofs, n_u)
     # central differences at a 1e-9 m step: truncation O(ε²), no ramp kink crossed (measured
     # 6e-12 serially, 7e-12 on 2 ranks); a wrong row mapping or a missing block gives O(1)
     mismatch, Jd = vc.contact_jacobian_mismatch(contact, A, x, d, bc_dofs)

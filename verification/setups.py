@@ -733,6 +733,17 @@ def contact_residual(contact: Any, state: Any) -> Any:
     return b
 
 
+def contact_direction(x: Any, seed: int, bc_dofs: Any, displacement_rows: int | None = None) -> Any:
+    """A random direction for :func:`contact_jacobian_mismatch`: standard normal entries,
+    those of the displacement (the first ``displacement_rows`` owned rows; None: all) scaled
+    to 1e-6 m, the Dirichlet entries ``bc_dofs`` zero."""
+    d = x.duplicate()
+    d.setArray(np.random.default_rng(seed).standard_normal(d.getLocalSize()))
+    d.array[:displacement_rows] *= 1e-6  # m
+    d.array[bc_dofs] = 0.0
+    return d
+
+
 def contact_jacobian_mismatch(
     contact: Any, A: Any, x: Any, d: Any, bc_dofs: Any, eps: float = 1e-3
 ) -> tuple[float, Any]:
