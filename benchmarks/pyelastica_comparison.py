@@ -11,15 +11,14 @@ code's finest run (each code's converged reference).
 
 magfem: ``[mesh] model = "rod"`` (``root = "rigid"``, ``rod_bending =
 "beam"``), implicit generalized-α (ρ∞ = 0.5), steps of Δt (cut where Newton
-fails). PyElastica
-(optional: ``pip install pyelastica``): a Cosserat rod with the same
-rectangular section (bending E b t³/12 and E t b³/12, Saint-Venant torsion,
-5/6 μ A shear, rotary inertia ρ I), explicit position Verlet, clamped by
-``OneEndFixedBC``; the magnetic couple is a forcing class (m × B per element,
-m = M A Δl along the section normal d₁, turned into the material frame). Both
+fails). PyElastica (optional: ``pip install pyelastica``): a Cosserat rod with
+the same rectangular section (bending E b t³/12 and E t b³/12, Saint-Venant
+torsion, 5/6 μ A shear, rotary inertia ρ I), explicit position Verlet, clamped
+by ``OneEndFixedBC``; the magnetic couple is a forcing class (m × B per
+element, m = M A Δl along the section normal d₁, in the material frame). Both
 run on one core; times are CPU seconds of the process (on a shared machine
-the wall time swings 2x with the other jobs; on an idle core the two agree)
-and exclude the one-off compilation (a warm-up run first).
+the wall time swings 2x with the other jobs) and exclude the one-off
+compilation (a warm-up run first).
 
 ``--damped``: both codes with the elastomer's Kelvin–Voigt damping of
 relaxation time β = tan δ/(2π f), default tan δ = 0.1 at f = 50 Hz
@@ -28,29 +27,26 @@ dynamic mechanical analyses give loss tangents of a few hundredths to a few
 tenths at tens of Hz, the filler adds to it; 0.1 is that range's middle, not
 a measured value of this membrane. magfem: ``[[loads]] kind =
 "material_damping"``, the section's stresses n = S(Γ + β Γ̇), m = B(K + β K̇)
-with the rod's own S = diag(EA, 5/6 μA, 5/6 μA) and B = diag(μ J, E b t³/12,
+with the rod's S = diag(EA, 5/6 μA, 5/6 μA), B = diag(μ J, E b t³/12,
 E t b³/12) (:meth:`~magfem.mechanics.models.rod.RodModel.strain_rate_energy`).
-PyElastica: the same law through its rest strains (the forcing class
-``KelvinVoigt``: σ_rest = −β σ̇, κ_rest = −β κ̇ from the last step's change,
-the same S and B, component by component). Mode ``DECAY_MODE``'s free decay
-(``--decay``) checks both against ζ = β ω/2. An explicit step with this
-damping is stable only while Δt ≲ 2/(β ω_max²) (the damped oscillator's
-central-difference bound at ζ = β ω/2 ≫ 1; the rate lagging by 1.5 Δt
-lowers it further), and PyElastica's highest frequency, its section turning
-against the shear stiffness, ω² = (5/6) μ A/(ρ I) = 10 μ/(ρ t²)
-(ω = 2.9e5 rad/s, 2/(β ω²) = 74 ns), does not fall with coarser elements: its
-stable step drops from ~5 µs to 10–30 ns (measured over 2 ms: 25 elements
-stable at 30 ns, not at 35 ns; 50 at 20, not at 25; 100 at 10, not at 15),
-and each damped level runs at about 0.8 of it. PyElastica's clamp (node 0 and
-element 0's directors held) shortens the free arm by about half an element
-(the fourth mode's frequency, undamped, falls as 1/n: +2.1 %, +1.1 %, +0.6 %
-from magfem's at 50, 100, 200 elements), so PyElastica converges at first
-order; the damped table also extrapolates its two finest levels. From the repository root:
+PyElastica: the same law, S and B component by component, through its rest
+strains (``KelvinVoigt``: σ_rest = −β σ̇, κ_rest = −β κ̇ from the last step's
+change). ``--decay`` checks both against ζ = β ω/2. An explicit step with this
+damping is stable only while Δt ≲ 2/(β ω_max²) (a damped oscillator's
+central-difference bound at ζ = β ω/2 ≫ 1; the rate's lag of 1.5 Δt lowers
+it), and PyElastica's highest frequency, its section turning against the
+shear stiffness, ω² = (5/6) μ A/(ρ I) = 10 μ/(ρ t²) (2/(β ω²) = 74 ns), does
+not fall with coarser elements: the stable step drops from the µs of the
+undamped levels to 10–30 ns (``--stability``); each damped level runs at about
+0.8 of it. PyElastica's clamp (node 0 and element 0's directors held) shortens
+the free arm by about half an element (``--decay``: the fourth mode's
+frequency falls as 1/n), so PyElastica converges at first order; the damped
+table also extrapolates its two finest levels. From the repository root:
 
-    .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] [--decay] [--split]
+    .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] [--decay|--stability|--split]
 
-(undamped ~2 min; ``--damped`` ~7 min; ``--decay`` ~1 min; ``--split``: where
-magfem's second-finest level spends its time, per step).
+(undamped ~2 min; ``--damped`` ~7 min; ``--decay`` ~1.5 min; ``--split``:
+where magfem's second-finest level spends its time, per step).
 """
 
 from __future__ import annotations
@@ -469,6 +465,15 @@ def damped(beta: float) -> None:
     report.print()
 
 
+def stability(beta: float) -> None:
+    """PyElastica's damped rod over 2 ms at the last stable and first unstable steps
+    (``--stability``): an unstable run leaves the rise (38° at 2 ms) within 0.25 ms."""
+    for n, steps in ((25, (3e-8, 3.5e-8)), (50, (2e-8, 2.5e-8)), (100, (1e-8, 1.5e-8))):
+        for dt in steps:
+            angles = np.round(elastica_run(n, dt, 2e-3, beta, every=2.5e-4)[1], 1).tolist()
+            rank0_print(f"{n} elements, dt {dt:g} s: tip angle every 0.25 ms {angles}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--damped", action="store_true", help="with the material damping")
@@ -476,10 +481,13 @@ def main() -> None:
     parser.add_argument("--frequency", type=float, default=LOSS_FREQUENCY, help="of tan δ, Hz")
     parser.add_argument("--decay", action="store_true", help="damped free decay, both codes")
     parser.add_argument("--split", action="store_true", help="magfem's time per step")
+    parser.add_argument("--stability", action="store_true", help="PyElastica's damped steps")
     args = parser.parse_args()
     beta = args.loss_tangent / (2 * np.pi * args.frequency) if args.damped else 0.0
     if args.split:
         magfem_split(*(MAGFEM_DAMPED_LEVELS if beta else MAGFEM_LEVELS)[-2], beta)
+    elif args.stability:
+        stability(args.loss_tangent / (2 * np.pi * args.frequency))
     elif args.decay:
         decay(args.loss_tangent / (2 * np.pi * args.frequency))
     elif beta:
