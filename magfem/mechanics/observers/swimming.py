@@ -234,16 +234,22 @@ def summarize_swimming(
 ) -> dict[str, float]:
     """Summary scalars of the swimming columns (module docstring); {} without them.
 
-    ``swim_distance`` (m), ``cost_of_transport``, and over the last complete
-    period of the drive (nan without one): ``swim_speed`` (m/s),
+    ``swim_distance`` (m) at the end and ``swim_distance_1period`` after the
+    first period of the drive (interpolated; nan before it), ``cost_of_transport``,
+    and over the last complete period (nan without one): ``swim_speed`` (m/s),
     ``mean_thrust``, ``mean_friction`` (N), ``stroke_amplitude_<arm>`` and
     ``stroke_amplitude_roll``/``_pitch`` (rad).
     """
     if "swim_distance" not in history:
         return {}
     t = np.asarray(history["time"], dtype=float)
+    distance = np.asarray(history["swim_distance"], dtype=float)
+    first = t[0] + 1.0 / frequency if frequency else math.inf
     out = {
-        "swim_distance": float(history["swim_distance"][-1]),
+        "swim_distance": float(distance[-1]),
+        "swim_distance_1period": float(np.interp(first, t, distance))
+        if first <= t[-1]
+        else math.nan,
         "cost_of_transport": float(history["cost_of_transport"][-1]),
     }
     window = _last_period(t, frequency)
@@ -253,8 +259,7 @@ def summarize_swimming(
         return out
     tw = t[window]
     span = tw[-1] - tw[0]
-    distance = np.asarray(history["swim_distance"])[window]
-    out["swim_speed"] = float((distance[-1] - distance[0]) / span)
+    out["swim_speed"] = float((distance[window][-1] - distance[window][0]) / span)
     for column, key in (("fluid_thrust", "mean_thrust"), ("fluid_friction", "mean_friction")):
         out[key] = float(np.trapezoid(np.asarray(history[column])[window], tw) / span)
     for column, values in history.items():
