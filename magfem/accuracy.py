@@ -87,8 +87,8 @@ class RodAdequacy:
 
 
 def _bend_length(case: Case) -> float | None:
-    """ℓ (m) at the sum of the sources' nominal flux densities; None without a field."""
-    flux = sum(getattr(s, "flux_density", None) or 0.0 for s in case.field.sources)
+    """ℓ (m) at the sources' amplitude bound (FieldSpec.nominal_flux_bound); None without one."""
+    flux = case.field.nominal_flux_bound()
     mat = case.material
     if flux <= 0.0 or mat.remanence <= 0.0:
         return None
@@ -245,7 +245,7 @@ def resolve_accuracy(case: Case) -> tuple[Case, list[str]]:
             "in magnetoelastic lengths",
         )
     mat = case.material
-    flux = sum(getattr(s, "flux_density", None) or 0.0 for s in case.field.sources)
+    flux = case.field.nominal_flux_bound()
     tau = material.magnetoelastic_time(
         mat.shear_modulus, mat.bulk, case.robot.thickness, mat.density, mat.remanence, flux
     )

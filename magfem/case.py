@@ -111,12 +111,13 @@ class Case:
         """One line on how well the mesh resolves a field-driven bend, or None.
 
         The magnetoelastic length ℓ (:func:`magfem.material.magnetoelastic_length`)
-        at the field amplitude bound (the sum of the sources' nominal flux
-        densities) and the elements of ``mesh.size`` per ℓ; about 3 P2 or 1.7 P3
-        elements give ~1° (docs/verification.md §4a, §4c). None without a
-        magnetisation or a nominal field.
+        at the field amplitude bound (:meth:`FieldSpec.nominal_flux_bound`: the
+        sources' nominal flux densities as vectors) and the elements of
+        ``mesh.size`` per ℓ; about 3 P2 or 1.7 P3 elements give ~1°
+        (docs/verification.md §4a, §4c). None without a magnetisation or a
+        nominal field.
         """
-        flux = sum(getattr(s, "flux_density", None) or 0.0 for s in self.field.sources)
+        flux = self.field.nominal_flux_bound()
         mat = self.material
         if flux <= 0.0 or mat.remanence <= 0.0:
             return None

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from magfem.config import CaseError, from_table
 from magfem.field.spec import FieldSpec
+from magfem.field.waveforms import build_waveform
 
 pytestmark = pytest.mark.serial  # pure validation, no MPI
 
@@ -117,3 +121,63 @@ def test_good_field_input():
     )
     assert spec.motions[0].offsets[1] == (0.0, 0.0, 1e-3)
     assert spec.motion("a") is spec.motions[0] and spec.motion("") is None
+
+
+def _uniform(flux: str, direction: list[float], waveform: dict) -> dict:
+    return {"kind": "uniform", "flux_density": flux, "direction": direction, "waveform": waveform}
+
+
+SQUARE = {"kind": "square", "frequency": "2 Hz"}
+
+
+@pytest.mark.parametrize(
+    ("sources", "scale"),
+    [
+        # two square waves in quadrature (the propeller): |B| is 2 mT at every instant
+        (
+            [
+                _uniform("1.414 mT", [0, 1, 0], SQUARE),
+                _uniform("1.414 mT", [0, 0, 1], SQUARE | {"phase": "90 deg"}),
+            ],
+            1.0,
+        ),
+        # a DC bias along a unipolar square wave: the two add when the square is on
+        (
+            [
+                _uniform("3 mT", [0, 0, 1], {}),
+                _uniform("4 mT", [0, 0, 1], SQUARE | {"bipolar": False}),
+            ],
+            1.0,
+        ),
+        # a bias of 3 mT along z and a bipolar 4 mT along x: 5 mT
+        (
+            [
+                _uniform("3 mT", [0, 0, 1], {}),
+                _uniform("4 mT", [1, 0, 0], SQUARE | {"amplitude": -1}),
+            ],
+            1.0,
+        ),
+        # a rotating field of sines in quadrature: |B| = 1 mT, the bound sqrt(2) too large
+        (
+            [
+                _uniform("1 mT", [1, 0, 0], {"kind": "sine", "frequency": "5 Hz"}),
+                _uniform(
+                    "1 mT", [0, 1, 0], {"kind": "sine", "frequency": "5 Hz", "phase": "90 deg"}
+                ),
+            ],
+            math.sqrt(2.0),
+        ),
+    ],
+)
+def test_nominal_flux_bound_is_the_largest_field_the_sources_give(sources, scale):
+    """The bound against |B(t)| of the waveforms sampled over a period (and its switches)."""
+    spec = from_table(FieldSpec, {"sources": sources}, "field")
+    t = np.linspace(0.0, 0.5, 20001)
+    total = sum(
+        np.outer(build_waveform(s.waveform).value(t), s.flux_density * s.unit_direction)
+        for s in spec.sources
+    )
+    largest = float(np.max(np.linalg.norm(total, axis=1)))
+    # the square waves' plateaus and the rotating field's constant |B| are sampled exactly:
+    # the tolerance is round-off's
+    assert spec.nominal_flux_bound() == pytest.approx(scale * largest, rel=1e-6)

@@ -77,13 +77,14 @@ def test_resume_gives_the_uninterrupted_history_bit_for_bit(comm, shared_tmp):
 
 
 @pytest.mark.slow  # over 0.3 s: not in the fast tier
-@pytest.mark.parametrize("scene", ["gripper", "pipette"])
-def test_resume_restores_cargo_and_obstacles(scene, comm, shared_tmp, repo):
-    """The gripper's cargo (a rigid body advanced between steps) and the pipette's moving
-    tip (an obstacle whose impact absorber remembers the nodes inside it) resume bit for
-    bit: their state is in the checkpoint. SuperLU_dist: MUMPS on two ranks schedules its
-    factorisation dynamically, and two uninterrupted shell runs already differ at round-off
-    (docs/running.md)."""
+@pytest.mark.parametrize("scene", ["gripper", "pipette", "rect_water"])
+def test_resume_restores_cargo_obstacles_and_swimming(scene, comm, shared_tmp, repo):
+    """The gripper's cargo (a rigid body advanced between steps), the pipette's moving
+    tip (an obstacle whose impact absorber remembers the nodes inside it) and rect-water's
+    swimming and body columns (the start of swim_distance, the drag's work so far, the sign
+    of the best-fit normal) resume bit for bit: their state is in the checkpoint.
+    SuperLU_dist: MUMPS on two ranks schedules its factorisation dynamically, and two
+    uninterrupted shell runs already differ at round-off (docs/running.md)."""
     overrides = ["mesh.size=1.2mm", "time.end=2ms", "time.step=0.25ms", "output.csv=true"]
     overrides += ["solver.linear_solver=superlu_dist"]
     overrides += ["output.vtx_every=0", "output.plot=false", "output.animation=false"]

@@ -67,5 +67,8 @@ def test_summary_of_a_periodic_history():
     assert out["mean_friction"] == pytest.approx(-1e-6, rel=1e-12)
     assert out["stroke_amplitude_fin"] == pytest.approx(0.3, rel=1e-4)
     assert out["swim_distance"] == pytest.approx(0.003, rel=1e-9)
+    # at t = 0.5 s (sample 200 of the 2.5 ms grid): 0.003 * 0.5 m, sin(2π) = 0
+    assert out["swim_distance_1period"] == pytest.approx(0.0015, rel=1e-12)
     short = summarize_swimming({k: v[:50] for k, v in history.items()}, 2.0)
     assert math.isnan(short["swim_speed"])  # less than one period: no mean
+    assert math.isnan(short["swim_distance_1period"])

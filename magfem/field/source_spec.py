@@ -201,6 +201,17 @@ class WaveformSpec:
             if any(abs(v) > 1.0 for v in self.values):
                 raise CaseError("values", self.values, "must lie in [-1, 1] (multiplier)")
 
+    def extremes(self) -> tuple[float, float]:
+        """(smallest, largest) value of the multiplier (0 included: all are 0 before start)."""
+        a = self.amplitude
+        if self.kind == "table":
+            values = [a * v for v in self.values or ()]
+        elif self.kind in ("sine", "square_rl") or (self.kind == "square" and self.bipolar):
+            values = [-abs(a), abs(a)]
+        else:  # dc, trigger, unipolar square
+            values = [a]
+        return min(0.0, *values), max(0.0, *values)
+
 
 def _waveform_default() -> WaveformSpec:
     return WaveformSpec()

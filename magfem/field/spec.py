@@ -170,6 +170,30 @@ class FieldSpec:
         """True when every source is spatially uniform (or there is none) and there is no iron."""
         return all(s.is_uniform for s in self.sources) and not self.iron
 
+    def nominal_flux_bound(self) -> float:
+        """Largest |B| (T) the sources' nominal flux densities add up to at one instant.
+
+        Uniform sources add as vectors, each scaled by any value in its
+        waveform's range (:meth:`WaveformSpec.extremes`); |Σ| is convex, so the
+        largest is at a corner of the ranges: exact for square waves, at most
+        √n too large for n sines in quadrature. A coil's nominal (centre) flux
+        density adds its magnitude times its waveform's; sources without one
+        add nothing.
+        """
+        vectors, ranges, rest = [], [], 0.0
+        for spec in self.sources:
+            lo, hi = spec.waveform.extremes()
+            if isinstance(spec, UniformSourceSpec):
+                vectors.append(spec.flux_density * spec.unit_direction)
+                ranges.append((lo, hi))
+            else:
+                rest += float(getattr(spec, "flux_density", None) or 0.0) * max(-lo, hi)
+        best = 0.0
+        for corner in itertools.product(*ranges):
+            total = sum((c * v for c, v in zip(corner, vectors, strict=True)), np.zeros(3))
+            best = max(best, float(np.linalg.norm(total)))
+        return best + rest
+
     def motion(self, name: str) -> MotionSpec | None:
         """The motion called ``name`` ('' → None)."""
         return next((m for m in self.motions if m.name == name), None) if name else None

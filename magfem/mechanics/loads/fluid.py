@@ -15,11 +15,17 @@ v_n = v_r·n, v_t = v_r − v_n n, the traction per current area is
 s_n = √(v_n² + ε²), s_t = √(|v_t|² + ε²) (ε: a Reynolds number of 10⁻³, so
 that the powers have derivatives at rest), k₁ = 0.138 (64/π) (ν/b)^0.208,
 k₂ = (64/π) ν/b. It is multiplied by the face's area ratio (Nanson) and
-integrated over the reference face. The added-mass term is an
-inertia-like force (:meth:`FluidLoad.inertia`), taken at the integrator's
-stage acceleration like the body's own inertia; the others are the virtual
-work at the stage point (:meth:`FluidLoad.work`). Everything is UFL of the
-unknowns, so Newton's Jacobian is exact.
+integrated over the reference face. The added-mass term ½ m_a a_n, which
+is exact for a face that translates, is taken from the kinetic energy of
+the fluid the faces carry, T = Σ_faces ∫ ¼ m_a (v_r·N)²/|N| dA (N = n da/dA),
+by Lagrange's equation d/dt ∂T/∂q̇ − ∂T/∂q (Kirchhoff's equations of a
+body in an ideal fluid, Lamb, *Hydrodynamics* 1932, §124–126): on a face
+that turns it adds −½ m_a ((v_r·ṅ) n + v_n ṅ) and the terms of ∂T/∂q, so
+that the added mass's power is dT/dt and it cannot give the body energy it
+never took. It is an inertia-like term (:meth:`FluidLoad.inertia`) at the
+integrator's stage values, like the body's own inertia; the others are the
+virtual work at the stage point (:meth:`FluidLoad.work`). Everything is UFL
+of the unknowns, so Newton's Jacobian is exact.
 
 Buoyancy is the potential +ρ_f/ρ_s ∫ ρ_s g·u of the displaced fluid
 (history column ``energy_fluid``); with gravity it makes a body of the
@@ -36,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 from dolfinx import fem
+from ufl.algorithms import expand_derivatives
 
 from magfem.config import CaseError
 from magfem.mechanics.fluid_spec import FluidSpec
@@ -118,9 +125,40 @@ class FluidLoad(Load):
     def inertia(
         self, model: Model, state: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
     ) -> list[ufl.Form]:
-        faces = model.faces(state, rates, self.surfaces)
-        acceleration = model.displacement(accelerations)
-        return sum_work(faces, [-self.added_mass_traction(f, acceleration) for f in faces])
+        """Lagrange's equation of the added mass's kinetic energy T (module docstring).
+
+        d/dt ∂T/∂q̇ [w] − ∂T/∂q [w], derived at placeholder Functions (q̂, q̂̇, q̂̈)
+        and evaluated at the integrator's stage values ``state``, ``rates``,
+        ``accelerations`` by replacement.
+        """
+        q = [fem.Function(f.function_space) for f in model.unknowns]
+        r = [fem.Function(f.function_space) for f in model.unknowns]
+        a = [fem.Function(f.function_space) for f in model.unknowns]
+        kinetic = self.added_mass_energy(model.faces(q, r, self.surfaces))
+        forms = []
+        for qi, ri, wi in zip(q, r, model.tests, strict=True):
+            momentum = ufl.derivative(kinetic, ri, wi)
+            rate = sum(
+                ufl.derivative(momentum, qj, rj) + ufl.derivative(momentum, rj, aj)
+                for qj, rj, aj in zip(q, r, a, strict=True)
+            )
+            form = expand_derivatives(rate - ufl.derivative(kinetic, qi, wi))
+            mapping = dict(zip(q + r + a, [*state, *rates, *accelerations], strict=True))
+            forms.append(ufl.replace(form, mapping))
+        return forms
+
+    def added_mass_energy(self, faces: Sequence[Face]) -> Any:
+        """T = Σ_faces ∫ ¼ m_a (v·N)²/|N| dA: the fluid's kinetic energy (J; J/m for strips).
+
+        N = n da/dA: each face carries half the plate's m_a (v·n)² per current area.
+        """
+        total: Any = 0
+        for face in faces:
+            area, _ = self._frame(face)
+            vn_area = ufl.dot(face.velocity - self.current, face.normal)
+            density = 0.25 * self.coefficients.added_mass * vn_area**2 / area
+            total = total + density * face.measure
+        return total
 
     def ramp(self, factor: float) -> bool:
         if not np.any(self.full_gravity):
@@ -156,43 +194,54 @@ class FluidLoad(Load):
         friction = (self.coefficients.tangential_damping + self.blasius * ufl.sqrt(st)) * vt
         return -area * (self.normal_drag(vn) * n + friction)
 
-    def added_mass_traction(self, face: Face, acceleration: Any) -> Any:
-        """−½ m_a (a·n) n on ``face`` (UFL gdim-vector, Pa per reference area)."""
-        area, n = self._frame(face)
-        return -area * 0.5 * self.coefficients.added_mass * ufl.dot(acceleration, n) * n
-
     # --- observation ---------------------------------------------------------------------------
 
     def observed_forms(self, model: Model, direction: Sequence[float]) -> dict[str, ufl.Form]:
         """Scalar forms at the accepted state (t_n): the fluid's force and power on the body.
 
         ``fluid_force_<x|y|z>`` (N, the strip's (x, z) per unit depth),
-        ``fluid_thrust`` (the normal forces' component along ``direction``, N),
-        ``fluid_friction`` (the skin friction's, N), ``fluid_power`` (the power
-        the body gives the fluid, W), ``fluid_area`` (the wetted faces' current
-        area, m²) and ``fluid_normal_speed2`` (∫ v_n² da, m⁴/s²).
+        ``fluid_thrust`` (the pressure's force along ``direction``: the normal
+        drag and the added mass, N), ``fluid_friction`` (the skin friction's,
+        N), ``fluid_power`` (the power the body gives the fluid, W),
+        ``fluid_drag_power`` (its part that the drag and skin friction take,
+        W), ``fluid_area`` (the wetted faces' current area, m²),
+        ``fluid_normal_speed2`` (∫ v_n² da, m⁴/s²) and ``fluid_kinetic`` (the
+        added mass's kinetic energy T, J). The added mass's force and power
+        are its Lagrange terms (:meth:`inertia`) for a unit translation and for
+        the body's velocity.
         """
         state, rates = model.accepted()
         accelerations = [p.a0 for p in model.integrator.parts]
-        acceleration = model.displacement(accelerations)
-        e = ufl.as_vector(_plane(direction, model.gdim) / np.linalg.norm(direction))
+        e = _plane(direction, model.gdim) / np.linalg.norm(direction)
         labels = "xyz" if model.gdim == 3 else "xz"
         forms: dict[str, Any] = {}
         for face in model.faces(state, rates, self.surfaces):
             area, n = self._frame(face)
             drag = self.drag_traction(face)
-            total = drag + self.added_mass_traction(face, acceleration)
-            normal = ufl.dot(total, n) * n
+            normal = ufl.dot(drag, n) * n
             vn = ufl.dot(face.velocity - self.current, n)
-            terms = {f"fluid_force_{k}": total[i] for i, k in enumerate(labels)}
+            terms = {f"fluid_force_{k}": drag[i] for i, k in enumerate(labels)}
             terms |= {
-                "fluid_thrust": ufl.dot(normal, e),
-                "fluid_friction": ufl.dot(total - normal, e),
-                "fluid_power": -ufl.dot(total, face.velocity),
+                "fluid_thrust": ufl.dot(normal, ufl.as_vector(e)),
+                "fluid_friction": ufl.dot(drag - normal, ufl.as_vector(e)),
+                "fluid_power": -ufl.dot(drag, face.velocity),
+                "fluid_drag_power": -ufl.dot(drag, face.velocity),
                 "fluid_area": area,
                 "fluid_normal_speed2": area * vn**2,
+                "fluid_kinetic": 0.25 * self.coefficients.added_mass * area * vn**2,
             }
             for key, integrand in terms.items():
                 term = integrand * face.measure
                 forms[key] = term if key not in forms else forms[key] + term
+        inertia = self.inertia(model, state, rates, accelerations)
+        translation = inertia[0]  # the displacement's; a translation turns nothing
+
+        def along(vector: npt.NDArray[np.float64]) -> Any:
+            return -ufl.replace(translation, {model.tests[0]: ufl.as_vector(vector)})
+
+        for i, k in enumerate(labels):
+            forms[f"fluid_force_{k}"] += along(np.eye(model.gdim)[i])
+        forms["fluid_thrust"] += along(e)
+        for form, test, rate in zip(inertia, model.tests, rates, strict=True):
+            forms["fluid_power"] += ufl.replace(form, {test: rate})
         return forms

@@ -114,6 +114,14 @@ class BodyMotion(Observer):
         row["tilt_about_y"] = math.atan2(n[0], n[2])
         return row
 
+    def state(self) -> dict[str, Any]:
+        """The sign the next best-fit normal follows (the last one)."""
+        return {"normal": self.normal.tolist()}
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        self.normal = np.asarray(state["normal"], dtype=float)
+
 
 def transition_time(
     times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], start: float, stop: float

@@ -12,7 +12,15 @@ times the depth:
   (N): thrust is what the normal forces of the strokes give, friction what
   the skin drag takes;
 * ``fluid_power`` (W): the power the body gives the fluid, and
-  ``fluid_work`` (J) its time integral (trapezoidal rule over the samples);
+  ``fluid_work`` (J) its time integral: the added mass's kinetic energy
+  gained since the start plus the drag's and skin friction's work
+  (trapezoidal rule over the samples). The added mass's power is the rate
+  of its kinetic energy exactly, so its work is taken as that energy's
+  change rather than summed from sampled powers, which would carry the
+  integrator's acceleration error;
+* ``fluid_kinetic`` (J): the kinetic energy of the added mass, ∫ ½ m_a v_n² da
+  (fluid_work − fluid_kinetic + its start value is what the fluid
+  dissipated: never negative);
 * ``fluid_reynolds``: Re = v_rms b/ν of the root-mean-square normal speed
   over the wetted faces;
 * ``cost_of_transport``: fluid_work / (m g |swim_distance|), the energy given
@@ -102,7 +110,8 @@ class Swimming(Observer):
         self.gdim, self.depth = gdim, depth
         self.nu, self.chord = kinematic_viscosity, chord
         self.start: npt.NDArray[np.float64] | None = None
-        self.work = 0.0
+        self.drag_work = 0.0
+        self.kinetic0: float | None = None
         self.last: tuple[float, float] | None = None
 
     def columns(self) -> list[str]:
@@ -117,6 +126,7 @@ class Swimming(Observer):
             "fluid_friction",
             "fluid_power",
             "fluid_work",
+            "fluid_kinetic",
             "fluid_reynolds",
             "cost_of_transport",
             *(["roll", "pitch"] if self.axes is not None else []),
@@ -136,10 +146,14 @@ class Swimming(Observer):
         if self.start is None:
             self.start = com.copy()
         distance = float(np.dot(com - self.start, self.direction))
-        power = fluid["fluid_power"] * self.depth
+        drag_power = fluid["fluid_drag_power"] * self.depth
         if self.last is not None:
-            self.work += 0.5 * (power + self.last[1]) * (t - self.last[0])
-        self.last = (t, power)
+            self.drag_work += 0.5 * (drag_power + self.last[1]) * (t - self.last[0])
+        self.last = (t, drag_power)
+        kinetic = fluid["fluid_kinetic"] * self.depth
+        if self.kinetic0 is None:
+            self.kinetic0 = kinetic
+        work = self.drag_work + kinetic - self.kinetic0
         com3 = com if g == 3 else np.array([com[0], 0.0, com[1]])
         row = {
             "swim_distance": distance,
@@ -147,19 +161,40 @@ class Swimming(Observer):
             "com_x": float(com3[0]),
             "com_y": float(com3[1]),
             "com_z": float(com3[2]),
-            "fluid_power": power,
-            "fluid_work": self.work,
+            "fluid_power": fluid["fluid_power"] * self.depth,
+            "fluid_work": work,
+            "fluid_kinetic": kinetic,
         }
-        for key in ("fluid_thrust", "fluid_friction", *(f"fluid_force_{k}" for k in self.labels)):
+        forces = ("fluid_thrust", "fluid_friction", *(f"fluid_force_{k}" for k in self.labels))
+        for key in forces:
             row[key] = fluid[key] * self.depth
         rms = math.sqrt(max(fluid["fluid_normal_speed2"], 0.0) / fluid["fluid_area"])
         row["fluid_reynolds"] = rms * self.chord / self.nu
         weight = mass * self.depth * STANDARD_WEIGHT_GRAVITY
         moved = abs(distance) > 1e-6 * self.chord
-        row["cost_of_transport"] = self.work / (weight * abs(distance)) if moved else math.nan
+        row["cost_of_transport"] = work / (weight * abs(distance)) if moved else math.nan
         if self.axes is not None:
             row["roll"], row["pitch"] = float(self.angles[0]), float(self.angles[1])
         return row
+
+    def state(self) -> dict[str, Any]:
+        """What the columns remember: the start, the work so far, the unwrapped turns."""
+        return {
+            "start": None if self.start is None else self.start.tolist(),
+            "drag_work": self.drag_work,
+            "kinetic0": self.kinetic0,
+            "last": None if self.last is None else list(self.last),
+            "angles": self.angles.tolist(),
+        }
+
+    def load_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`state`."""
+        start, last = state["start"], state["last"]
+        self.start = None if start is None else np.asarray(start, dtype=float)
+        self.drag_work = float(state["drag_work"])
+        self.kinetic0 = state["kinetic0"]
+        self.last = None if last is None else (float(last[0]), float(last[1]))
+        self.angles = np.asarray(state["angles"], dtype=float)
 
     def _turn(self, images: npt.NDArray[np.float64]) -> None:
         """Update the unwrapped (roll, pitch) from the mean images of l and e."""
@@ -199,16 +234,22 @@ def summarize_swimming(
 ) -> dict[str, float]:
     """Summary scalars of the swimming columns (module docstring); {} without them.
 
-    ``swim_distance`` (m), ``cost_of_transport``, and over the last complete
-    period of the drive (nan without one): ``swim_speed`` (m/s),
+    ``swim_distance`` (m) at the end and ``swim_distance_1period`` after the
+    first period of the drive (interpolated; nan before it), ``cost_of_transport``,
+    and over the last complete period (nan without one): ``swim_speed`` (m/s),
     ``mean_thrust``, ``mean_friction`` (N), ``stroke_amplitude_<arm>`` and
     ``stroke_amplitude_roll``/``_pitch`` (rad).
     """
     if "swim_distance" not in history:
         return {}
     t = np.asarray(history["time"], dtype=float)
+    distance = np.asarray(history["swim_distance"], dtype=float)
+    first = t[0] + 1.0 / frequency if frequency else math.inf
     out = {
-        "swim_distance": float(history["swim_distance"][-1]),
+        "swim_distance": float(distance[-1]),
+        "swim_distance_1period": float(np.interp(first, t, distance))
+        if first <= t[-1]
+        else math.nan,
         "cost_of_transport": float(history["cost_of_transport"][-1]),
     }
     window = _last_period(t, frequency)
@@ -218,8 +259,7 @@ def summarize_swimming(
         return out
     tw = t[window]
     span = tw[-1] - tw[0]
-    distance = np.asarray(history["swim_distance"])[window]
-    out["swim_speed"] = float((distance[-1] - distance[0]) / span)
+    out["swim_speed"] = float((distance[window][-1] - distance[window][0]) / span)
     for column, key in (("fluid_thrust", "mean_thrust"), ("fluid_friction", "mean_friction")):
         out[key] = float(np.trapezoid(np.asarray(history[column])[window], tw) / span)
     for column, values in history.items():
