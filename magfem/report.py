@@ -385,7 +385,8 @@ def _compared(study: Study, records: list[dict[str, Any]]) -> list[tuple[dict, d
         if not study.compare_by:
             key: tuple[tuple[str, str], ...] = ()
         else:
-            key = tuple((n, str(v)) for n, v in rec["params"].items() if n != study.compare_by)
+            resolution = (study.compare_by, *study.compare_also)
+            key = tuple((n, str(v)) for n, v in rec["params"].items() if n not in resolution)
         groups.setdefault(key, []).append(rec)
     pairs = [(g[0], g[-1]) for g in groups.values() if len(g) > 1]
     return [(a, b) for a, b in pairs if a.get("status") == b.get("status") == "done"]
@@ -395,9 +396,10 @@ def _difference_lines(study: Study, first: dict[str, Any], last: dict[str, Any])
     """The ``compare`` scalars of the last run against the first (absolute, in the table's
     unit, and relative)."""
     if study.compare_by:
-        by = study.compare_by
-        rest = ", ".join(str(v) for n, v in first["params"].items() if n != by)
-        label = f"{rest}: {by} {last['params'][by]} vs {first['params'][by]}"
+        resolution = (study.compare_by, *study.compare_also)
+        rest = ", ".join(str(v) for n, v in first["params"].items() if n not in resolution)
+        changes = ", ".join(f"{n} {last['params'][n]} vs {first['params'][n]}" for n in resolution)
+        label = f"{rest}: {changes}"
     else:
         label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
     parts = []

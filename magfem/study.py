@@ -77,6 +77,11 @@ class Study:
         "first for each value of the other parameters, one line each, and the sweep plot "
         "draws a line per its value; empty: the last run of the study against the first",
     )
+    compare_also: tuple[str, ...] = option(
+        (),
+        doc="with compare_by: parameters that change with it (e.g. time.step halved with "
+        "mesh.size), left out of the grouping and named in the difference line",
+    )
     figure: tuple[str, ...] = option(
         (),
         doc="history columns plotted against time, one panel each and a line per run (default: "
@@ -122,6 +127,15 @@ class Study:
             raise CaseError(
                 "compare_by", self.compare_by, "must name one of params: " + ", ".join(names)
             )
+        for i, name in enumerate(self.compare_also):
+            if not self.compare_by:
+                raise CaseError(f"compare_also[{i}]", name, "needs compare_by")
+            if name not in names or name == self.compare_by:
+                raise CaseError(
+                    f"compare_also[{i}]",
+                    name,
+                    "must name another of params: " + ", ".join(names),
+                )
         for i, text in enumerate(self.sets):
             if not _SET.match(text):
                 raise CaseError(f"sets[{i}]", text, "expected KEY=VALUE, e.g. time.end=20ms")

@@ -92,6 +92,24 @@ def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, r
         "**Difference** (10ms: mesh.size 0.05mm vs 0.1mm): max_angle_arm +2.0° (+3.5 %).",
         "**Difference** (20ms: mesh.size 0.05mm vs 0.1mm): max_angle_arm -0.5° (-0.4 %).",
     ]
+    # ``compare_also``: the step halved with the mesh still pairs the runs of each end time
+    (folder / "probe.toml").write_text(
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\npaired = true\n'
+        'params = ["time.end=10ms,10ms,20ms,20ms", "mesh.size=0.1mm,0.05mm,0.1mm,0.05mm",\n'
+        '"time.step=0.2ms,0.1ms,0.2ms,0.1ms"]\ncompare = ["max_angle_arm"]\n'
+        'compare_by = "mesh.size"\ncompare_also = ["time.step"]\n',
+        encoding="utf-8",
+    )
+    study = load_studies(folder)[0]
+    _write_points(tmp_path / "out2", study, [{"max_angle_arm": a} for a in angles])
+    page = build_report(tmp_path / "out2", **kwargs).read_text()
+    lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
+    assert lines == [
+        "**Difference** (10ms: mesh.size 0.05mm vs 0.1mm, time.step 0.1ms vs 0.2ms): "
+        "max_angle_arm +2.0° (+3.5 %).",
+        "**Difference** (20ms: mesh.size 0.05mm vs 0.1mm, time.step 0.1ms vs 0.2ms): "
+        "max_angle_arm -0.5° (-0.4 %).",
+    ]
 
 
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
