@@ -9,9 +9,9 @@ import math
 
 import pytest
 
-from magfem.case import parse_case
+from magfem.case import load_case, parse_case
 from magfem.pipeline import build_simulation
-from magfem.sanity import SWITCH_ROTATION, SwitchWatch, implausible
+from magfem.sanity import START_STEP_FRACTION, SWITCH_ROTATION, SwitchWatch, implausible
 from verification.setups import STRIP_CANTILEVER
 
 
@@ -84,3 +84,32 @@ def test_supports_that_hold_most_of_the_body_warn(radius, warns, comm, caplog):
         build_simulation(case, comm)
     found = [r.getMessage() for r in caplog.records if "the supports" in r.getMessage()]
     assert bool(found) == warns, found
+
+
+@pytest.mark.parametrize(
+    ("sets", "warns"),
+    [
+        ([], False),  # the case's 0.05 ms
+        (["time.step=0.25ms"], False),  # just below 0.1 τ, τ = 2.54 ms
+        (["time.step=0.26ms"], True),  # just above
+        (["time.step=2ms"], True),  # the start that threw the propeller over
+        (
+            [
+                "time.step=2ms",
+                "field.sources.0.waveform.start=1ms",
+                "field.sources.1.waveform.start=1ms",
+            ],
+            False,
+        ),
+        (["time.step=2ms", "time.scheme=quasi_static"], False),
+    ],
+)
+def test_a_long_first_step_of_a_free_robot_in_a_fluid_warns(repo, sets, warns):
+    """The propeller (free, in water, field on from t = 0): a first step above 0.1 of the
+    magnetoelastic time warns; a field switched on later, or no inertia, does not."""
+    case = load_case(repo / "cases" / "propeller.toml", sets)
+    lines = implausible(case)
+    assert len(lines) == int(warns), lines
+    if warns:
+        assert f"more than {START_STEP_FRACTION:g} of the magnetoelastic time" in lines[0]
+        assert "\n" not in lines[0]
