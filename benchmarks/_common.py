@@ -41,6 +41,7 @@ TRAPEZOID_SOLID = (
     "mesh.layers=1",
     "solver.degree=2",
     "solver.force_tolerance=0",
+    "solver.reuse_jacobian=false",
     "time.step=0.5ms",
     "time.end=100ms",
     "time.rho_inf=0.5",

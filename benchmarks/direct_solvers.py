@@ -5,7 +5,7 @@ factorises its Jacobian again and again with each direct solver (numeric
 factorisation and solve, the symbolic one reused, as in Newton), printing
 the CPU time per factorisation and the Jacobian's size and nonzeros.
 ``[solver] linear_solver = "auto"`` uses PETSc's LU up to
-:data:`magfem.mechanics.solver.PETSC_LU_NONZEROS` nonzeros (one process).
+:data:`magfem.mechanics.solver_options.PETSC_LU_NONZEROS` nonzeros (one process).
 Serial, from the repository root (~1 min):
 
     .venv/bin/python -m benchmarks.direct_solvers

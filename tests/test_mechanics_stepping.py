@@ -50,3 +50,26 @@ def test_error_control_lands_on_switches_and_varies_the_step(comm):
     steps = np.round(np.diff(times), 12)
     assert len(set(steps)) > 3, steps
     assert sim.controller.last_error is not None
+
+
+def test_slow_and_easy_steps_count_jacobians_where_newton_kept_some():
+    """With ``reuse_jacobian`` a solve's difficulty is its Jacobian assemblies: 12 iterations
+    on 2 Jacobians is a cheap, easy step (the kept Jacobian's linear convergence), while
+    12 iterations each with its own Jacobian is slow and cuts the next step."""
+    from magfem.mechanics.solver import NewtonReport
+    from magfem.mechanics.spec import TimeSpec
+    from magfem.mechanics.stepping import StepController
+
+    spec = TimeSpec(step=1e-4, max_step=4e-4)  # slow at 10, easy at 4 iterations
+    said: list[str] = []
+    kept = StepController(spec, lambda t0, t1: np.array([]), said.append)
+    for _ in range(2):
+        kept.accepted(0.0, NewtonReport(True, 2, 12, 12, 1e-9, jacobians=2), 0, 1e-4)
+    assert kept.dt == pytest.approx(1.5e-4)  # two easy steps: grown
+    assert kept.newton_iterations == 24  # the count of iterations stays what it was
+    full = StepController(spec, lambda t0, t1: np.array([]), said.append)
+    full.accepted(0.0, NewtonReport(True, 2, 12, 12, 1e-9), 0, 1e-4)
+    assert full.dt == pytest.approx(0.5e-4)  # slow: the next step cut
+    assert "slow Newton (12 it)" in said[-1]
+    kept.accepted(0.0, NewtonReport(True, 2, 14, 14, 1e-9, jacobians=10), 0, 1e-4)
+    assert "slow Newton (14 it, 10 Jacobians)" in said[-1]

@@ -111,6 +111,7 @@ class Simulation:
             solver,
             name="step",
             homogeneous_bcs=True,
+            refresh_on=[model.integrator.dt],
         )
         if solver.force_tolerance > 0.0:
             self.solver.set_force_scale(self.weight_scale())
@@ -233,7 +234,7 @@ class Simulation:
                 if report.converged:
                     lam, accepted = trial, accepted + 1
                     self.controller.newton_iterations += report.iterations
-                    if report.iterations <= self.time_spec.easy_iterations:
+                    if report.effort <= self.time_spec.easy_iterations:
                         step = min(2 * step, 1.0)
                     continue
                 step /= 2
@@ -292,6 +293,7 @@ class Simulation:
                 report.iterations + retry.iterations,
                 report.linear_iterations + retry.linear_iterations,
                 retry.residual_norm,
+                None if report.jacobians is None else report.jacobians + (retry.jacobians or 0),
             )
         return report
 

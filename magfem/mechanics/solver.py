@@ -9,8 +9,8 @@ returns a :class:`NewtonReport` whose ``converged`` is
 
 Default options (measured on thin cantilevers, docs/mechanics.md): Newton with
 ``basic`` line search (``bt`` stalled), direct LU chosen by size
-(:func:`choose_linear_solver`: PETSc's own LU for small Jacobians on one
-process, MUMPS otherwise), and
+(:func:`~magfem.mechanics.solver_options.choose_linear_solver`: PETSc's own LU
+for small Jacobians on one process, MUMPS otherwise), and
 ``snes_divergence_tolerance = 1e12`` (practically unlimited: PETSc's default 1e4 stops
 Newton on thin plates whose first iterate raises ‖R‖ a thousandfold).
 Options in ``SolverSpec.petsc_options`` override these; every problem has
@@ -41,44 +41,79 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
+from magfem.mechanics.solver_options import (
+    FACTORISATIONS,
+    choose_linear_solver,
+    factor_options,
+    newton_options,
+)
 from magfem.mechanics.spec import SolverSpec
 
 __all__ = [
-    "FACTORISATIONS",
-    "KRYLOV_DEFAULTS",
-    "PETSC_LU_NONZEROS",
+    "JacobianReuse",
     "NewtonReport",
     "NewtonSolver",
     "SolverTimings",
-    "choose_linear_solver",
     "load_norm",
-    "newton_options",
+    "solve_linear",
 ]
 
-PETSC_LU_NONZEROS = 150_000
-"""``linear_solver = "auto"`` factorises Jacobians with at most this many nonzeros
-with PETSc's own LU (on one process), larger ones with MUMPS: MUMPS's fixed
-cost per factorisation dominates below, its supernodes win above (CPU per
-numeric factorisation, ``python -m benchmarks.direct_solvers``: 5x less with
-PETSc's LU on a rod's 33 k nonzeros, 1.7x on a shell's 65 k, even at 174 k,
-MUMPS 1.3x faster on the default solid's 211 k, 2x on 380 k)."""
-
-FACTORISATIONS = ("lu", "cholesky")
-"""Preconditioners (``pc_type``) that are direct factorisations."""
-
-KRYLOV_DEFAULTS: dict[str, Any] = {
-    "ksp_type": "gmres",
-    "ksp_pc_side": "right",
-    "ksp_rtol": 1e-8,
-    "ksp_gmres_restart": 200,
-    "ksp_max_it": 1000,
-}
-"""Krylov options under a preconditioner that is not a factorisation (e.g.
-``petsc_options = { pc_type = "gamg" }``), each overridden by ``petsc_options``:
-GMRES preconditioned on the right, so its relative tolerance is the true
-residual's, 1e-8 of it (Newton's own tolerance is 1e-6 of the predictor's residual)."""
-
 _COUNTER = itertools.count()
+
+
+class JacobianReuse:
+    """When :class:`NewtonSolver` may keep the factorised Jacobian (modified Newton).
+
+    The Jacobian of the previous assembly, and its factorisation, serve the next
+    iterations, of this step and of the following ones, as long as
+
+    * each iteration made with it leaves ‖R‖ at or below ``contraction`` times the
+      previous iterate's (``SolverSpec.reuse_contraction``; Newton with an exact
+      Jacobian, converging, reduces it by far more),
+    * the values of the constants in ``watch`` (e.g. the time step, which scales
+      the inertia term) are those it was assembled with,
+    * the last solve converged.
+
+    Its test reads SNES's iteration number and residual norm, which are the same on
+    every rank: the decision is collective without communication. Newton's tests on
+    ‖R‖ stay the same, so the step is converged to the same tolerances.
+    """
+
+    def __init__(self, contraction: float, watch: Sequence[fem.Constant] = ()):
+        self.contraction = contraction
+        self.watch = list(watch)
+        self.valid = False
+        self._values: tuple[float, ...] = ()
+        self._previous = math.inf
+        self.kept_this_solve = 0
+        self.assembled_this_solve = 0
+
+    def _current(self) -> tuple[float, ...]:
+        return tuple(float(np.sum(c.value)) for c in self.watch)
+
+    def start(self) -> None:
+        """A new solve begins (its first iteration has no contraction yet)."""
+        self._previous = math.inf
+        self.kept_this_solve = 0
+        self.assembled_this_solve = 0
+
+    def keep(self, snes: PETSc.SNES) -> bool:
+        """Whether this iteration may use the kept Jacobian (called before assembling it)."""
+        norm = float(snes.getFunctionNorm())
+        previous, self._previous = self._previous, norm
+        keep = (
+            self.valid
+            and self._current() == self._values
+            and not norm > self.contraction * previous
+        )
+        self.kept_this_solve += keep
+        return keep
+
+    def assembled(self) -> None:
+        """A Jacobian was assembled: it is the one kept from now on."""
+        self.valid = True
+        self._values = self._current()
+        self.assembled_this_solve += 1
 
 
 @dataclass
@@ -91,6 +126,8 @@ class SolverTimings:
     linear_solve: float = 0.0
     residual_calls: int = 0
     jacobian_calls: int = 0
+    jacobian_reuses: int = 0
+    """Newton iterations that kept the factorised Jacobian (``reuse_jacobian``)."""
 
     @property
     def assembly(self) -> float:
@@ -107,73 +144,21 @@ class NewtonReport:
     iterations: int
     linear_iterations: int
     residual_norm: float
+    jacobians: int | None = None
+    """Jacobians assembled (``reuse_jacobian``); None: one per iteration."""
+
+    @property
+    def effort(self) -> int:
+        """Newton iterations with a freshly assembled Jacobian: what the step
+        controller judges a solve's difficulty by (kept-Jacobian iterations are cheap
+        and say how stale the Jacobian is, not how hard the step)."""
+        return self.iterations if self.jacobians is None else self.jacobians
 
     @property
     def reason_name(self) -> str:
         """PETSc's name of the converged/diverged reason."""
         names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
         return names.get(self.reason, str(self.reason))
-
-
-def choose_linear_solver(spec: SolverSpec, nonzeros: int, ranks: int) -> str:
-    """The direct solver (``petsc``, ``mumps``, ``superlu_dist``) of ``spec`` for a Jacobian.
-
-    Args:
-        nonzeros: nonzero entries of the Jacobian (all ranks together).
-        ranks: processes sharing it (PETSc's own LU is serial only).
-    """
-    if spec.linear_solver != "auto":
-        return spec.linear_solver
-    return "petsc" if ranks == 1 and nonzeros <= PETSC_LU_NONZEROS else "mumps"
-
-
-def _factor_options(linear_solver: str) -> dict[str, Any]:
-    """Options of the LU factorisation by ``linear_solver``.
-
-    PETSc's own LU does not pivot and calls a pivot zero below an absolute
-    1e-12 (``pc_factor_zeropivot``): the rotary inertia of a rod's or shell's
-    rotations puts ~1e-18 on the diagonal of the initial acceleration's mass
-    matrix, so only an exact zero counts as one here.
-    """
-    opts: dict[str, Any] = {"pc_factor_mat_solver_type": linear_solver}
-    if linear_solver == "petsc":
-        opts["pc_factor_zeropivot"] = 0.0
-    return opts
-
-
-def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[str, Any]:
-    """PETSc options (without prefix) for a :class:`SolverSpec`.
-
-    ``linear_solver``: the direct solver chosen (:func:`choose_linear_solver`);
-    None: ``spec.linear_solver``, with ``auto`` read as ``mumps``. Where
-    ``spec.petsc_options`` names a preconditioner other than a factorisation
-    (``pc_type``), the LU's options are left out and the Krylov method
-    defaults to :data:`KRYLOV_DEFAULTS`.
-    """
-    if linear_solver is None:
-        linear_solver = "mumps" if spec.linear_solver == "auto" else spec.linear_solver
-    opts: dict[str, Any] = {
-        "snes_type": "newtonls",
-        "snes_linesearch_type": spec.line_search,
-        "snes_rtol": spec.rtol,
-        "snes_atol": spec.atol,
-        "snes_stol": spec.stol,
-        "snes_max_it": spec.max_iterations,
-        "snes_divergence_tolerance": 1e12,
-        "snes_max_fail": 0,
-        "ksp_type": "preonly",
-        "pc_type": "lu",
-        "ksp_error_if_not_converged": False,
-    }
-    if spec.petsc_options.get("pc_type", "lu") in FACTORISATIONS:
-        opts |= _factor_options(linear_solver)
-    else:
-        opts |= KRYLOV_DEFAULTS
-    if spec.reuse_jacobian:
-        # rebuild the Jacobian every second Newton iteration only
-        opts["snes_lag_jacobian"] = 2
-    opts.update(spec.petsc_options)
-    return opts
 
 
 class NewtonSolver:
@@ -197,6 +182,8 @@ class NewtonSolver:
             zero, and the residual skips it (``apply_lifting`` computes the
             element Jacobians of every cell touching a constrained dof: on the
             default case that was 15 ms of a 27 ms residual).
+        refresh_on: with ``spec.reuse_jacobian``, constants of the Jacobian whose
+            change makes the kept Jacobian stale (:class:`JacobianReuse`).
 
     The forms are compiled once here (timed in ``timings.compile``).
     """
@@ -212,6 +199,7 @@ class NewtonSolver:
         J: ufl.Form | None = None,
         force_scale: float | None = None,
         homogeneous_bcs: bool = False,
+        refresh_on: Sequence[fem.Constant] = (),
     ):
         self.u = u
         self.spec = spec
@@ -245,6 +233,10 @@ class NewtonSolver:
         self.jacobian_hooks: list[Callable[[PETSc.Vec, PETSc.Mat], None]] = []
         """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
+        self.reuse = (
+            JacobianReuse(spec.reuse_contraction, refresh_on) if spec.reuse_jacobian else None
+        )
+        """The policy that keeps the Jacobian across iterations and steps, or None."""
         self._wrap_callbacks(list(bcs), homogeneous_bcs)
         self.force_scale: float | None = None
         self._residual_functions: list[fem.Function] | None = None
@@ -275,7 +267,7 @@ class NewtonSolver:
         if "pc_factor_mat_ordering_type" not in user:
             pc.setFactorOrdering("nd")
         if "pc_factor_zeropivot" not in user:
-            pc.setFactorPivot(zeropivot=_factor_options(chosen)["pc_factor_zeropivot"])
+            pc.setFactorPivot(zeropivot=factor_options(chosen)["pc_factor_zeropivot"])
         return chosen
 
     def set_force_scale(self, force_scale: float) -> float:
@@ -340,11 +332,20 @@ class NewtonSolver:
             timings.residual += time.perf_counter() - t0
             timings.residual_calls += 1
 
+        reuse = self.reuse
+
         def jacobian(snes_: Any, x: Any, A: Any, P: Any) -> None:
+            if reuse is not None and reuse.keep(snes_):
+                # A unchanged: the PC keeps its factorisation (PETSc refactors on a
+                # change of the matrix's state only)
+                timings.jacobian_reuses += 1
+                return
             t0 = time.perf_counter()
             fem_petsc.assemble_jacobian(snes_, x, A, P, u, J, None, bcs)
             for hook in jacobian_hooks:
                 hook(x, A)
+            if reuse is not None:
+                reuse.assembled()
             timings.jacobian += time.perf_counter() - t0
             timings.jacobian_calls += 1
 
@@ -377,17 +378,57 @@ class NewtonSolver:
     def solve(self) -> NewtonReport:
         """Run Newton from the current ``u``; never raises on divergence.
 
+        With ``reuse_jacobian``, a solve that failed with a kept Jacobian is run
+        once more from the same start with Jacobians assembled afresh (the
+        report counts the iterations of both).
+
         Returns:
             the report; on failure ``u`` holds the last iterate (callers restore it).
         """
+        reuse = self.reuse
+        if reuse is None:
+            return self._solve_once()
+        funcs = list(self.u) if isinstance(self.u, Sequence) else [self.u]
+        start = [f.x.array.copy() for f in funcs]
+        reuse.start()
+        report = self._solve_once()
+        if report.converged:
+            return report
+        reuse.valid = False
+        if not reuse.kept_this_solve:
+            return report
+        for f, x0 in zip(funcs, start, strict=True):
+            f.x.array[:] = x0
+        reuse.start()
+        retry = self._solve_once()
+        reuse.valid = retry.converged
+        return NewtonReport(
+            retry.converged,
+            retry.reason,
+            report.iterations + retry.iterations,
+            report.linear_iterations + retry.linear_iterations,
+            retry.residual_norm,
+            (report.jacobians or 0) + (retry.jacobians or 0),
+        )
+
+    def _solve_once(self) -> NewtonReport:
+        """One SNES solve from the current ``u`` (:meth:`solve`)."""
         snes = self.snes
         ksp_time0 = self.timings.linear_solve
         t0 = time.perf_counter()
         asm0 = self.timings.assembly
+        jacobians = None if self.reuse is None else self.reuse
         try:
             self.problem.solve()
         except PETSc.Error:
-            return NewtonReport(False, -100, snes.getIterationNumber(), 0, float("nan"))
+            return NewtonReport(
+                False,
+                -100,
+                snes.getIterationNumber(),
+                0,
+                float("nan"),
+                None if jacobians is None else jacobians.assembled_this_solve,
+            )
         elapsed = time.perf_counter() - t0
         self.timings.linear_solve = ksp_time0 + max(elapsed - (self.timings.assembly - asm0), 0.0)
         reason = int(snes.getConvergedReason())  # type: ignore[call-overload]
@@ -407,6 +448,7 @@ class NewtonSolver:
             int(snes.getIterationNumber()),
             int(snes.getLinearSolveIterations()),
             float(norm),
+            None if jacobians is None else jacobians.assembled_this_solve,
         )
 
     def destroy(self) -> None:

@@ -1,6 +1,10 @@
-"""Checking ``[solver] petsc_options`` before a run: PETSc says what it does not use.
+"""The Newton solver's PETSc options, and their check before a run.
 
-The Newton solver hands its options (:func:`magfem.mechanics.solver.newton_options`:
+:func:`newton_options` gives magfem's defaults for a :class:`SolverSpec` (the
+direct solver by size, :func:`choose_linear_solver`; Krylov defaults under a
+preconditioner that is not a factorisation), then ``petsc_options``.
+
+The Newton solver hands these options (:func:`newton_options`:
 magfem's defaults, then ``petsc_options``) to PETSc when it is set up. An
 option PETSc does not read (a typo, an option of another solver type) is
 ignored without a word, and a malformed value (``snes_rtol = "abc"``)
@@ -21,10 +25,99 @@ from typing import Any
 from petsc4py import PETSc
 
 from magfem.config import CaseError
-from magfem.mechanics.solver import newton_options
 from magfem.mechanics.spec import SolverSpec
 
-__all__ = ["check_petsc_options"]
+__all__ = [
+    "FACTORISATIONS",
+    "KRYLOV_DEFAULTS",
+    "PETSC_LU_NONZEROS",
+    "check_petsc_options",
+    "choose_linear_solver",
+    "factor_options",
+    "newton_options",
+]
+
+PETSC_LU_NONZEROS = 150_000
+"""``linear_solver = "auto"`` factorises Jacobians with at most this many nonzeros
+with PETSc's own LU (on one process), larger ones with MUMPS: MUMPS's fixed
+cost per factorisation dominates below, its supernodes win above (CPU per
+numeric factorisation, ``python -m benchmarks.direct_solvers``: 5x less with
+PETSc's LU on a rod's 33 k nonzeros, 1.7x on a shell's 65 k, even at 174 k,
+MUMPS 1.3x faster on the default solid's 211 k, 2x on 380 k)."""
+
+FACTORISATIONS = ("lu", "cholesky")
+"""Preconditioners (``pc_type``) that are direct factorisations."""
+
+KRYLOV_DEFAULTS: dict[str, Any] = {
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_rtol": 1e-8,
+    "ksp_gmres_restart": 200,
+    "ksp_max_it": 1000,
+}
+"""Krylov options under a preconditioner that is not a factorisation (e.g.
+``petsc_options = { pc_type = "gamg" }``), each overridden by ``petsc_options``:
+GMRES preconditioned on the right, so its relative tolerance is the true
+residual's, 1e-8 of it (Newton's own tolerance is 1e-6 of the predictor's residual)."""
+
+
+def choose_linear_solver(spec: SolverSpec, nonzeros: int, ranks: int) -> str:
+    """The direct solver (``petsc``, ``mumps``, ``superlu_dist``) of ``spec`` for a Jacobian.
+
+    Args:
+        nonzeros: nonzero entries of the Jacobian (all ranks together).
+        ranks: processes sharing it (PETSc's own LU is serial only).
+    """
+    if spec.linear_solver != "auto":
+        return spec.linear_solver
+    return "petsc" if ranks == 1 and nonzeros <= PETSC_LU_NONZEROS else "mumps"
+
+
+def factor_options(linear_solver: str) -> dict[str, Any]:
+    """Options of the LU factorisation by ``linear_solver``.
+
+    PETSc's own LU does not pivot and calls a pivot zero below an absolute
+    1e-12 (``pc_factor_zeropivot``): the rotary inertia of a rod's or shell's
+    rotations puts ~1e-18 on the diagonal of the initial acceleration's mass
+    matrix, so only an exact zero counts as one here.
+    """
+    opts: dict[str, Any] = {"pc_factor_mat_solver_type": linear_solver}
+    if linear_solver == "petsc":
+        opts["pc_factor_zeropivot"] = 0.0
+    return opts
+
+
+def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[str, Any]:
+    """PETSc options (without prefix) for a :class:`SolverSpec`.
+
+    ``linear_solver``: the direct solver chosen (:func:`choose_linear_solver`);
+    None: ``spec.linear_solver``, with ``auto`` read as ``mumps``. Where
+    ``spec.petsc_options`` names a preconditioner other than a factorisation
+    (``pc_type``), the LU's options are left out and the Krylov method
+    defaults to :data:`KRYLOV_DEFAULTS`.
+    """
+    if linear_solver is None:
+        linear_solver = "mumps" if spec.linear_solver == "auto" else spec.linear_solver
+    opts: dict[str, Any] = {
+        "snes_type": "newtonls",
+        "snes_linesearch_type": spec.line_search,
+        "snes_rtol": spec.rtol,
+        "snes_atol": spec.atol,
+        "snes_stol": spec.stol,
+        "snes_max_it": spec.max_iterations,
+        "snes_divergence_tolerance": 1e12,
+        "snes_max_fail": 0,
+        "ksp_type": "preonly",
+        "pc_type": "lu",
+        "ksp_error_if_not_converged": False,
+    }
+    if spec.petsc_options.get("pc_type", "lu") in FACTORISATIONS:
+        opts |= factor_options(linear_solver)
+    else:
+        opts |= KRYLOV_DEFAULTS
+    opts.update(spec.petsc_options)
+    return opts
+
 
 _COUNTER = itertools.count()
 _KEY = "solver.petsc_options"

@@ -30,6 +30,7 @@ from typing import Any
 from magfem.config import (
     CaseError,
     build_fields,
+    flag,
     integer,
     option,
     quantity,
@@ -244,7 +245,7 @@ class SolverSpec:
     and override the options derived from the other keys. A ``pc_type``
     other than ``lu``/``cholesky`` (e.g. ``"gamg"``) replaces the direct
     solve by right-preconditioned GMRES to 1e-8 of the residual
-    (:data:`magfem.mechanics.solver.KRYLOV_DEFAULTS`).
+    (:data:`magfem.mechanics.solver_options.KRYLOV_DEFAULTS`).
 
     Newton converges when the residual norm ‖R‖ (the Euclidean norm of the
     nodal force vector, N; N/m for strips) drops below ``rtol`` × its value
@@ -279,7 +280,20 @@ class SolverSpec:
     )
     stol: float = quantity(1e-10, "", ge=0.0, lt=1.0, doc="Newton relative step tolerance")
     max_iterations: int = integer(15, ge=1, doc="Newton iterations before a step counts as failed")
-    reuse_jacobian: bool = False
+    reuse_jacobian: bool = flag(
+        False,
+        doc="keep the factorised Jacobian across Newton iterations and steps while each "
+        "iteration reduces the residual norm to reuse_contraction of the previous one or less "
+        "(modified Newton); rebuilt when the step changes and after a failed solve",
+    )
+    reuse_contraction: float = quantity(
+        0.5,
+        "",
+        gt=0.0,
+        lt=1.0,
+        doc="reuse_jacobian: rebuild the Jacobian after an iteration that left the residual "
+        "norm above this fraction of the previous one",
+    )
     degree: int = integer(2, ge=1, le=3, doc="Lagrange degree of the displacement (P2 default)")
     quadrature_degree: int | None = integer(
         None, ge=1, le=12, doc="quadrature degree (default 2 × degree)"

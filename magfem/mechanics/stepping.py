@@ -10,7 +10,9 @@
   :class:`SimulationError` is raised.
 * A slow solve (>= ``slow_iterations``) cuts the next step; two easy solves
   in a row (<= ``easy_iterations``) grow it by ``grow_factor`` up to
-  ``max_step``. Every change is reported through ``say``.
+  ``max_step``. A solve's cost is its Newton iterations, or, with
+  ``[solver] reuse_jacobian``, its Jacobian assemblies
+  (:attr:`~magfem.mechanics.solver.NewtonReport.effort`). Every change is reported through ``say``.
 * With ``tolerance`` (error control) the easy-solve rule gives way to the
   integrator's local error estimate e (m,
   :meth:`~magfem.mechanics.integrator.TimeIntegrator.local_error`) against
@@ -214,14 +216,14 @@ class StepController:
         self.newton_iterations += report.iterations
         if self.controls_error:
             self._from_error(t, dt, error)
-        if spec.adaptive and report.iterations >= spec.slow_iterations:
+        if spec.adaptive and report.effort >= spec.slow_iterations:
             new_dt = max(self.dt * spec.cut_factor, spec.smallest_step)
             self.say(
-                f"t = {t:.6g} s: slow Newton ({report.iterations} it); "
+                f"t = {t:.6g} s: slow Newton ({_effort(report)}); "
                 f"next step {self.dt:.3g} -> {new_dt:.3g} s"
             )
             self.dt = new_dt
-        easy = report.iterations <= spec.easy_iterations and cuts == 0
+        easy = report.effort <= spec.easy_iterations and cuts == 0
         self._easy = self._easy + 1 if easy else 0
         if self.controls_error:
             return
@@ -280,3 +282,10 @@ def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArra
     """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
     found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
     return np.unique(np.concatenate(found)) if found else np.zeros(0)
+
+
+def _effort(report: NewtonReport) -> str:
+    """A solve's iterations, and its Jacobians where it kept some, for messages."""
+    if report.jacobians is None:
+        return f"{report.iterations} it"
+    return f"{report.iterations} it, {report.jacobians} Jacobians"
