@@ -42,6 +42,7 @@ TRAPEZOID_SOLID = (
     "solver.degree=2",
     "solver.force_tolerance=0",
     "solver.reuse_jacobian=false",
+    "fluid.medium=vacuum",
     "time.step=0.5ms",
     "time.end=100ms",
     "time.rho_inf=0.5",

@@ -260,13 +260,21 @@ def test_turning_plate_keeps_the_energy_of_its_added_mass(comm, model):
         ({"viscosity": 1e-3}, r"fluid\.density: missing: give density and viscosity"),
         (WATER | {"current": [0.01, 0, 0]}, r"fluid\.current\[0\] = 0\.01: give the current"),
         (WATER | {"current": ["1 cm", 0, 0]}, r"fluid\.current\[0\] = '1 cm': unit"),
-        ({"medium": "honey"}, r"fluid\.medium = 'honey': must be one of water, air"),
+        ({"medium": "honey"}, r"fluid\.medium = 'honey': must be one of water, air, vacuum"),
+        ({"medium": "vacuum", "density": 1.2}, r"fluid\.density = 1\.2: medium = \"vacuum\" takes"),
         (WATER | {"frequency": "-2 Hz"}, r"fluid\.frequency = '-2 Hz': must be >= 0"),
     ],
 )
 def test_bad_fluid_input_names_the_key(fluid, message):
     with pytest.raises(CaseError, match=message):
         parse_case(_plate("surface", 1e-4, {}, fluid))
+
+
+def test_vacuum_medium_switches_the_fluid_off():
+    """``--set fluid.medium=vacuum`` on a case with air: no fluid at all, so the same run as
+    the case without its ``[fluid]`` table (what benchmarks pin the default case to)."""
+    assert parse_case(_plate("surface", 1e-4, {}, {"medium": "air"})).fluid is not None
+    assert parse_case(_plate("surface", 1e-4, {}, {"medium": "vacuum"})).fluid is None
 
 
 def test_unknown_fluid_face_names_the_key(comm):

@@ -21,7 +21,10 @@ from magfem.config import (
     vector,
 )
 
-__all__ = ["FLUID_MEDIA", "FluidSpec"]
+__all__ = ["FLUID_MEDIA", "VACUUM", "FluidSpec"]
+
+VACUUM = "vacuum"
+"""``[fluid] medium`` for no fluid at all (the case's ``fluid`` is then None)."""
 
 
 FLUID_MEDIA = {"water": (998.2, 1.002e-3), "air": (1.204, 1.813e-5)}
@@ -33,13 +36,17 @@ class FluidSpec:
     """``[fluid]``: the fluid around the robot (docs/fluid.md): buoyancy, added mass, drag.
 
     Give ``medium = "water"`` or ``"air"`` (20 °C), or ``density`` and
-    ``viscosity``; either may override a medium's value. The model's
+    ``viscosity``; either may override a medium's value. ``medium = "vacuum"``
+    alone means no fluid: the table then parses to None, so that
+    ``--set fluid.medium=vacuum`` switches a case's fluid off. The model's
     coefficients are per unit plate area for a chord b (``chord``, default
     the robot's area over its arms' total length: an arm's mean width) and
     are printed, with their sources and validity, by ``magfem check``.
     """
 
-    medium: str | None = option(None, tuple(FLUID_MEDIA), doc="preset fluid at 20 °C")
+    medium: str | None = option(
+        None, (*FLUID_MEDIA, VACUUM), doc=f'preset fluid at 20 °C; "{VACUUM}": no fluid'
+    )
     density: float | None = quantity(None, "kg/m^3", gt=0.0, doc="ρ_f (default: the medium's)")
     viscosity: float | None = quantity(
         None, "Pa*s", gt=0.0, doc="dynamic viscosity μ (default: the medium's)"
@@ -73,7 +80,13 @@ class FluidSpec:
     )
 
     @classmethod
-    def __from_table__(cls, table: Mapping[str, Any], where: str) -> FluidSpec:
+    def __from_table__(cls, table: Mapping[str, Any], where: str) -> FluidSpec | None:
+        if table.get("medium") == VACUUM:
+            others = sorted(set(table) - {"medium"})
+            if others:
+                key = f"{where}.{others[0]}" if where else others[0]
+                raise CaseError(key, table[others[0]], f'medium = "{VACUUM}" takes no other key')
+            return None
         raw = table.get("current")
         if isinstance(raw, list | tuple):
             for i, item in enumerate(raw):
