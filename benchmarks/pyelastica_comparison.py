@@ -46,7 +46,8 @@ table also extrapolates its two finest levels. From the repository root:
     .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] [--decay|--stability|--split]
 
 (undamped ~2 min; ``--damped`` ~7 min; ``--decay`` ~1.5 min; ``--split``:
-where magfem's second-finest level spends its time, per step).
+where magfem's second-finest level spends its time, per step;
+``--reuse-jacobian``: magfem's runs with ``[solver] reuse_jacobian``).
 """
 
 from __future__ import annotations
@@ -100,6 +101,8 @@ ELASTICA_DAMPED_LEVELS = [(25, 2.5e-8), (50, 1.6e-8), (100, 8e-9)]  # (n, Δt s)
 ELASTIC_STEP = {25: 4e-6, 50: 2e-6, 100: 1e-6}  # s, the undamped levels' steps
 DECAY_MODE, DECAY_PUSH, DECAY_END, DECAY_EVERY = 4, 1e-3, 15e-3, 2e-5  # 133 Hz; m/s; s; s
 CLAMP = vc.CLAMP_LENGTH  # m, where magfem's rigid root ends (x of s = 0)
+SOLVER: dict[str, Any] = {}
+"""More ``[solver]`` keys of magfem's runs (``--reuse-jacobian``)."""
 
 
 def magfem_case(
@@ -118,7 +121,7 @@ def magfem_case(
         mesh_options={"rod_bending": "beam"},
         field=vc.DRIVE if field is None else field,
         time={"end": end, "step": step, "rho_inf": 0.5},
-        solver={"degree": degree},
+        solver={"degree": degree, **SOLVER},
         loads=damping,
     )
 
@@ -482,7 +485,12 @@ def main() -> None:
     parser.add_argument("--decay", action="store_true", help="damped free decay, both codes")
     parser.add_argument("--split", action="store_true", help="magfem's time per step")
     parser.add_argument("--stability", action="store_true", help="PyElastica's damped steps")
+    parser.add_argument(
+        "--reuse-jacobian", action="store_true", help="magfem keeps its Jacobian (modified Newton)"
+    )
     args = parser.parse_args()
+    if args.reuse_jacobian:
+        SOLVER["reuse_jacobian"] = True
     beta = args.loss_tangent / (2 * np.pi * args.frequency) if args.damped else 0.0
     if args.split:
         magfem_split(*(MAGFEM_DAMPED_LEVELS if beta else MAGFEM_LEVELS)[-2], beta)
