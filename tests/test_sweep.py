@@ -146,3 +146,34 @@ def test_history_summary_reads_first_self_touch(tmp_path):
     assert out["max_self_contact_force"] == 3e-4
     (tmp_path / "history.csv").write_text("time,self_contact_force\n0.0,0.0\n", encoding="utf-8")
     assert math.isnan(summarize_history(tmp_path)["first_self_touch"])
+
+
+def test_a_value_inserted_in_a_list_keeps_the_finished_points(tmp_path):
+    """Folders are named p<index>_<hash>: inserting 5 Hz before 10 and 20 Hz moves their
+    indices, and their finished runs must be taken over, not run again."""
+    from magfem.sweep.runner import _adopt_moved, _unfinished
+
+    old = build_points([("f", ["10Hz", "20Hz"])], "base")
+    new = build_points([("f", ["5Hz", "10Hz", "20Hz"])], "base")
+    assert [p.ident for p in old] != [p.ident for p in new[1:]]  # the indices moved
+    for pt in old:
+        folder = tmp_path / "points" / pt.ident
+        folder.mkdir(parents=True)
+        record = {"params": pt.params, "fingerprint": "base", "status": "done"}
+        (folder / "point.json").write_text(json.dumps(record))
+    said: list[str] = []
+    _adopt_moved(new, tmp_path, said.append)
+    assert sorted(d.name for d in (tmp_path / "points").iterdir()) == [p.ident for p in new[1:]]
+    assert len(said) == 2 and all(line.startswith("moved ") for line in said)
+    skipped: list[str] = []
+    assert _unfinished(new, tmp_path, "base", False, skipped) == [new[0]]  # only 5 Hz runs
+    assert skipped == [p.ident for p in new[1:]]
+
+
+def test_frequencies_over_a_decade_go_on_a_log_axis():
+    from magfem.sweep.summary import log_axis
+
+    assert log_axis([10.0, 15.0, 20.0, 200.0])  # 10-200 Hz: 10 and 15 Hz would crowd
+    assert not log_axis([100.0, 200.0])  # less than a decade: linear
+    assert not log_axis([0.0, 1e-3, 1e-2])  # a zero has no place on a log axis
+    assert not log_axis([-1.0, 20.0])

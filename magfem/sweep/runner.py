@@ -186,6 +186,7 @@ def run_sweep(
         load_case(case_path, [*base_overrides, *pt.overrides()])
     (out / "points").mkdir(parents=True, exist_ok=True)
     log = _Log(out / "sweep.log", echo)
+    _adopt_moved(points, out, log)
     result = SweepResult(records=[])
     todo = [
         _point_job(case_path, out, base_overrides, fprint, ranks, pt)
@@ -205,6 +206,26 @@ def run_sweep(
         )
     _summarise(result, points, [n for n, _ in parsed], out, paired, log)
     return result
+
+
+def _adopt_moved(points: Sequence[Point], out: Path, log: Callable[[str], None]) -> None:
+    """Rename the folder of a point whose index changed (a value inserted in a list).
+
+    A point's folder is ``p<index>_<hash of its parameters and base case>``: the hash alone
+    names the run. A point without a folder takes over the one folder with its hash that no
+    current point names, so inserting or reordering values does not rerun finished points.
+    """
+    current = {pt.ident for pt in points}
+    for pt in points:
+        if (out / "points" / pt.ident).exists():
+            continue
+        digest = pt.ident.split("_", 1)[1]
+        moved = [
+            d for d in (out / "points").glob(f"p*_{digest}") if d.name not in current and d.is_dir()
+        ]
+        if len(moved) == 1:
+            moved[0].rename(out / "points" / pt.ident)
+            log(f"moved {moved[0].name} -> {pt.ident} (same parameters, new position)")
 
 
 def _unfinished(

@@ -15,7 +15,7 @@ from magfem.mechanics.columns import read_history
 from magfem.mechanics.observers import history_summary
 from magfem.sweep.points import format_number
 
-__all__ = ["plot_sweep", "summarize_history", "write_summary"]
+__all__ = ["LOG_AXIS_RATIO", "log_axis", "plot_sweep", "summarize_history", "write_summary"]
 
 
 def _frequency(resolved: dict[str, Any]) -> float | None:
@@ -99,6 +99,16 @@ def write_summary(records: list[dict[str, Any]], names: list[str], out: Path) ->
     return path
 
 
+LOG_AXIS_RATIO = 10.0
+"""A numeric first parameter spanning this ratio or more is plotted on a log axis."""
+
+
+def log_axis(values: list[float]) -> bool:
+    """Whether values (SI) of a sweep's first parameter go on a log axis: all positive and
+    spanning at least :data:`LOG_AXIS_RATIO`."""
+    return bool(values) and min(values) > 0 and max(values) >= LOG_AXIS_RATIO * min(values)
+
+
 def plot_sweep(
     records: list[dict[str, Any]],
     names: list[str],
@@ -148,6 +158,9 @@ def plot_sweep(
             )
     if numeric:  # ticks at the values, labelled as the sweep wrote them ("0.3mm", "20Hz")
         ticks = {r["si"][x_name]: r["params"][x_name] for r in done}
+        if log_axis(list(ticks)):
+            ax.set_xscale("log")  # e.g. 10-200 Hz: the low values would crowd a linear axis
+            ax.minorticks_off()
         ax.set_xticks(list(ticks), list(ticks.values()))
     else:
         ax.set_xticks(range(len(categories)), categories)
