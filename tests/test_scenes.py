@@ -78,7 +78,9 @@ SCENES: dict[str, list[str]] = {
     # the default case's shell at P2 (its P3 would be the suite's only P3 shell compile)
     "one_arm_trapezoid": _tiny("2mm", "2ms", "0.5ms", "mesh.size_across=2mm", "solver.degree=2"),
     "one_arm_shapes_rectangle": _tiny("0.5mm", "3ms", "0.5ms", *STRIP),
-    "one_arm_shapes_triangle": _tiny("2mm", "2ms", "0.5ms"),
+    "one_arm_shapes_triangle": _tiny(
+        "2mm", "2ms", "0.5ms", "mesh.size_across=2mm", "solver.degree=2"
+    ),
     "active_length": _tiny("1mm", "0.2s", "0.05s", *STRIP),
     "failure": _tiny("2.5mm", "2ms", "0.5ms"),
     "bow_tie": _tiny("1mm", "2ms", "0.5ms", *NO_GROUND),
