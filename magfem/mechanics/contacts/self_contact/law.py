@@ -38,11 +38,11 @@ Within a group.
     whatever the facing and foot tests decide near the cells' edges. A
     fold is felt once its two sides are more than E apart along the
     membrane: a fold tighter than a few cells is not resolved by the mesh
-    anyway. A point pairs with its own group only once its gap is below a
-    (one cell: the search is refreshed every step, so a surface approaching
-    faster than a cell per step may be caught a step late, by the band),
-    so that an arm curled over its own base far above it is no pair at all
-    and the pairs of other groups stay as they were. E is a Euclidean
+    anyway. A point pairs with its own group (or any other) only once its
+    gap is below a (one cell: the search is refreshed every step, so a
+    surface approaching faster than a cell per step may be caught a step
+    late, by the band), so that an arm curled over its own base far above
+    it is no pair at all. E is a Euclidean
     distance at rest: along the membrane for the flat robots (and never
     longer than the distance along it, so it excludes no less), but two
     parts of one group that face each other at rest closer than E never

@@ -14,25 +14,30 @@ Search (closest point, nearest-node form).
     (a point that went through is not pulled back the wrong way, and where
     two arms meet, the bottom face of one does not see the top face of the
     other through the thickness: with a band of one thickness the 1 mm bow
-    tie paired those at g = −h and Newton failed at 1 ms). Then every
+    tie paired those at g = −h and Newton failed at 1 ms) and less than one
+    cell (corner to corner) outside: the search is refreshed every step, and
+    a pair farther apart measures its gap to a tangent plane that may be far
+    from where the surfaces will meet. Then every
     displacement node of the slave surface (vertices and, for P2/P3, edge
     and face nodes) takes the master group of the paired vertices of its
-    facets and, in that group, the nearest master *displacement node* on
-    the face that n̄ belongs to (its normal within 60° of n̄): x̄ at
-    a slave quadrature point is interpolated from those nodes with the
-    displacement's own shape functions, so on matching meshes it is the
-    master's own surface and the reaction is distributed over the master's
-    nodes like the traction over the slave's (with vertices only, the P2
-    edge nodes carried half the pressure and the faces rippled). n̄ is
-    interpolated linearly from the vertices. The gap to the master's tangent
-    plane equals the gap to the surface for a flat master and is off by
-    O(d² κ) for a master of curvature κ at lateral offset d ≲ one facet.
-    Nodes without a master have x̄ at their own position (no gap there).
-    With ``within`` a group is also searched against itself: candidates
-    closer at rest than its own exclusion are skipped before the nearest
-    CANDIDATES are examined, pairs are kept below a gap of one cell, and
-    its nodes take their master nodes around the master vertex found
-    (:mod:`.law`, :meth:`SurfacePairing._pair_own_nodes`).
+    facets and the master vertex one of them found, and, among that group's
+    *displacement nodes* within one cell of that vertex at rest, the nearest
+    one (current positions) on the face that n̄ belongs to (its normal
+    within 60° of n̄): x̄ at a slave node is that node's position, and
+    between nodes it is interpolated with the displacement's own shape
+    functions (the shell evaluates the contact at the nodes only,
+    :mod:`.shell`), so on matching meshes x̄ is the master's own surface and
+    the reaction goes to the master's nodes like the traction to the slave's
+    (with vertices only, the P2 edge nodes carried half the pressure and
+    the faces rippled; the nearest facing node of the whole group is, on a
+    curled master, often far from the facet found). n̄ is interpolated linearly from the
+    vertices. The gap to the master's tangent plane equals the gap to the
+    surface for a flat master and is off by O(d² κ) for a master of
+    curvature κ at lateral offset d ≲ one facet. Nodes without a master have
+    x̄ at their own position (no gap there). With ``within`` a group is also
+    searched against itself: candidates closer at rest than its own
+    exclusion are skipped before the nearest CANDIDATES are examined
+    (:mod:`.law`).
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
@@ -130,7 +135,7 @@ class SurfacePairing(ContactSurfaces):
             "ds" if self.edim < domain.topology.dim else "dx",
             domain=domain,
             subdomain_data=tags,
-            metadata={"quadrature_degree": quadrature_degree},
+            metadata=self._quadrature(quadrature_degree),
         )
         self.measure = measure(tuple(range(1, len(names) + 1)))
         self._surface_vertices(facets, facet_label)
@@ -140,7 +145,7 @@ class SurfacePairing(ContactSurfaces):
         self.nbar = fem.Function(self.Vc, name="self_contact_normal")
         self.u_geom = fem.Function(V, name="self_contact_displacement")
         self._anchor = np.full(self.reference.shape, np.nan)
-        """Per contact vertex paired within its own group: its master vertex at rest (m)."""
+        """Per paired contact vertex: its master vertex at rest (m)."""
         self.vertex_displacement = fem.Function(self.Vc)
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
@@ -151,6 +156,10 @@ class SurfacePairing(ContactSurfaces):
         )
         bs = V.dofmap.index_map_bs
         self.number_rows(bs * int(V.dofmap.index_map.local_range[0]))  # V alone
+
+    def _quadrature(self, degree: int) -> dict[str, Any]:
+        """Metadata of the contact measure: a Gauss rule of ``degree``."""
+        return {"quadrature_degree": degree}
 
     def _area_normal(self) -> Any:
         """Outward normal times the area ratio da/dA of the surface at u_geom (UFL, Nanson)."""
@@ -258,7 +267,7 @@ class SurfacePairing(ContactSurfaces):
         self.nbar.x.scatter_forward()
         self.partner[nodes] = partner
         self.gap[nodes] = gap
-        self._anchor[nodes] = np.where((partner == label)[:, None], gref[anchor], np.nan)
+        self._anchor[nodes] = np.where((partner >= 0)[:, None], gref[anchor], np.nan)
         self._pair_nodes()
         self.place(self.u_geom.x.array)
 
@@ -309,8 +318,7 @@ class SurfacePairing(ContactSurfaces):
             & self._far_in_reference(ref, mref[idx], in_j[idx], j, limit)
             & inside(foot, mc[idx], INSIDE)
         )
-        if own:  # within a group, only surfaces that may close the gap within about a step
-            ok &= g < self._diameter[j]
+        ok &= g < self._diameter[j]  # only surfaces that may close the gap within about a step
         # per candidate, of its valid facets the one that most opposes the slave's normal
         choice = np.argmin(np.where(ok, dots, np.inf), axis=-1)
         valid = ok.any(axis=-1)
@@ -348,15 +356,14 @@ class SurfacePairing(ContactSurfaces):
         """Pair every displacement node of the contact surfaces with a master node (collective).
 
         A node takes the master group of the paired vertices of its facets
-        and, in that group, the nearest node of the master's surface (current
-        positions, vertices and higher-order nodes alike) whose outward normal
-        is within 60° of n̄ there (the face that n̄ belongs to, not the
-        opposite face of the membrane a thickness away): on matching meshes a
-        slave edge node faces the master's edge node, so x̄ is the master's own
-        interpolation of its surface and the reaction is distributed like the
-        slave's traction. A node of the master group itself (``within``)
-        takes it among the master nodes around the master vertex its facet's
-        vertices found (:meth:`_pair_own_nodes`).
+        and the master vertex one of them found (:meth:`_node_anchors`) and,
+        among that group's nodes within one cell of the vertex at rest, the
+        nearest (current positions, vertices and higher-order nodes alike)
+        whose outward normal is within 60° of n̄ there (the face that n̄
+        belongs to, not the opposite face of the membrane a thickness away):
+        on matching meshes a slave edge node faces the master's edge node, so
+        x̄ is the master's own surface and the reaction is distributed like the
+        slave's traction.
         """
         gdim = self.gdim
         disp = self.u_geom.x.array.reshape(-1, gdim)
@@ -369,75 +376,47 @@ class SurfacePairing(ContactSurfaces):
         mnormal = np.concatenate([p[1] for p in parts])
         mnormal /= np.maximum(np.linalg.norm(mnormal, axis=1), 1e-300)[:, None]
         nbar = self._nbar_v.x.array.reshape(-1, gdim)
-        group = np.full(self.vlabel.size, -1, dtype=np.int32)
-        if self.facet_vnodes.shape[0]:
-            fgroup = self.partner[self.facet_dofs].max(axis=1)
-            np.maximum.at(
-                group,
-                self.facet_vnodes.ravel(),
-                np.repeat(fgroup, self.facet_vnodes.shape[1]),
-            )
+        group, anchor = self._node_anchors()
         self.vpartner[:] = -1
         unit = np.linalg.norm(nbar, axis=1)
         self._lift = self.offset * nbar / np.where(unit > 0, unit, 1.0)[:, None]
         here = self.vreference + disp
         for j in range(len(self.groups)):
             slaves = np.flatnonzero(group == j)
-            in_j = np.flatnonzero(self._gvlabel == j)
-            if self.law.within:  # a group folded onto itself
-                own = slaves[self.vlabel[slaves] == j]
-                self._pair_own_nodes(j, own, position, mnormal, nbar, here)
-                slaves = slaves[self.vlabel[slaves] != j]
-            if slaves.size == 0 or in_j.size == 0:
+            tree, index = self._node_tree[j]
+            if slaves.size == 0 or index.size == 0:
                 continue
-            k = min(CANDIDATES, in_j.size)
-            _, idx = cKDTree(position[in_j]).query(here[slaves], k=k)
-            idx = in_j[idx.reshape(slaves.size, k)]
-            dots = np.einsum("ska,sa->sk", mnormal[idx], nbar[slaves])
-            facing = (np.abs(dots) if self.two_sided else dots) > -FACING * np.maximum(
-                np.linalg.norm(nbar[slaves], axis=1), 1e-300
-            )[:, None]
-            has = facing.any(axis=1)
-            first = np.argmax(facing, axis=1)
-            self.vpartner[slaves[has]] = idx[np.arange(slaves.size), first][has]
+            patches = tree.query_ball_point(anchor[slaves], r=self._diameter[j])
+            for s, patch in zip(slaves, patches, strict=True):
+                c = index[np.asarray(patch, dtype=np.int64)]
+                dots = mnormal[c] @ nbar[s]
+                bound = -FACING * max(float(np.linalg.norm(nbar[s])), 1e-300)
+                c = c[(np.abs(dots) if self.two_sided else dots) > bound]
+                if c.size:
+                    self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
         self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
 
-    def _pair_own_nodes(
-        self,
-        j: int,
-        slaves: npt.NDArray[np.int64],
-        position: npt.NDArray[Any],
-        mnormal: npt.NDArray[Any],
-        nbar: npt.NDArray[Any],
-        here: npt.NDArray[Any],
-    ) -> None:
-        """Pair nodes of group j paired with group j itself: among the group's nodes within
-        one cell (at rest) of the master vertex found by a vertex of the node's facets, the
-        nearest facing one (its own surface nearby is nearer than the fold's other side).
-
-        Args:
-            j: the group.
-            slaves: local V nodes of group j whose facets' vertices paired with group j.
-            position, mnormal: current positions and unit normals of the gathered nodes.
-            nbar, here: per local V node, n̄ and the current position.
-        """
-        if slaves.size == 0 or self.facet_vnodes.shape[0] == 0:
-            return
-        corners = self._anchor[self.facet_dofs]  # (facets, vertices, gdim)
-        paired = np.isfinite(corners[..., 0])
-        facet_anchor = corners[np.arange(len(corners)), np.argmax(paired, axis=1)]
+    def _node_anchors(self) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+        """Per local V node: the master group of its facets (the largest paired with; -1:
+        none) and the master vertex at rest (m; NaN: none) that a vertex of such a facet
+        found."""
+        group = np.full(self.vlabel.size, -1, dtype=np.int32)
         anchor = np.full((self.vlabel.size, self.gdim), np.nan)
-        anchor[self.facet_vnodes.ravel()] = np.repeat(facet_anchor, self.facet_vnodes.shape[1], 0)
-        slaves = slaves[np.isfinite(anchor[slaves, 0])]
-        tree, index = self._node_tree[j]
-        patches = tree.query_ball_point(anchor[slaves], r=self._diameter[j])
-        for s, patch in zip(slaves, patches, strict=True):
-            c = index[np.asarray(patch, dtype=np.int64)]
-            dots = mnormal[c] @ nbar[s]
-            bound = -FACING * max(float(np.linalg.norm(nbar[s])), 1e-300)
-            c = c[(np.abs(dots) if self.two_sided else dots) > bound]
-            if c.size:
-                self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
+        if self.facet_vnodes.shape[0] == 0:
+            return group, anchor
+        vertex_group = self.partner[self.facet_dofs]  # (facets, vertices)
+        fgroup = vertex_group.max(axis=1)
+        first = np.argmax(vertex_group == fgroup[:, None], axis=1)
+        fanchor = self._anchor[self.facet_dofs[np.arange(len(first)), first]]
+        per = self.facet_vnodes.shape[1]
+        node = self.facet_vnodes.ravel()
+        # every node takes the facet of the largest group around it
+        order = np.lexsort((np.repeat(fgroup, per), node))
+        last = order[np.r_[np.flatnonzero(np.diff(node[order])), node.size - 1]]
+        group[node[last]] = np.repeat(fgroup, per)[last]
+        anchor[node[last]] = np.repeat(fanchor, per, axis=0)[last]
+        group[~np.isfinite(anchor[:, 0])] = -1
+        return group, anchor
 
     def place(self, displacement: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
         """Move x̄ to the master nodes at ``displacement`` (local V array, m) (collective).

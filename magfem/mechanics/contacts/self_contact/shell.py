@@ -30,6 +30,15 @@ crossed the master's (penetration beyond h) is paired with the other face
 at the next search: the penalty is a tolerance of a fraction of h, not a
 barrier. A group folded onto itself (``self_contact_within``) touches itself the same
 way, its own neighbourhood excluded (:mod:`.law`).
+
+Nodal rule (node-to-surface): the contact integrals are evaluated at the
+displacement's nodes, with weights ∫φ_i dA (:func:`nodal_rule`: Gauss–Lobatto
+for the quadrilaterals' GLL-warped P2 and P3 nodes, all positive). Each node's
+gap is then its own, (x_i − x̄_i)·n̄_i against its master node (or zero without
+one), and a node pressed in by δ carries k_c r(δ) ∫φ_i dA. At Gauss points
+the gap would be interpolated between paired nodes and nodes without a
+master (x̄ = x), and P2/P3 shape functions, negative over part of the cell,
+make it negative between nodes whose gaps are all positive.
 """
 
 from __future__ import annotations
@@ -38,6 +47,7 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
+import basix
 import numpy as np
 import numpy.typing as npt
 import ufl
@@ -47,7 +57,29 @@ from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.self_contact.law import SelfContactLaw
 from magfem.mechanics.contacts.self_contact.search import SurfacePairing
 
-__all__ = ["ShellPairing"]
+__all__ = ["ShellPairing", "nodal_rule"]
+
+
+def nodal_rule(V: fem.FunctionSpace) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Quadrature at the nodes of V's element: its reference points and weights ∫φ_i.
+
+    Where some ∫φ_i is not positive (P2 triangles: 0 at the vertices) the
+    weights are the diagonal of the mass matrix scaled to the cell's area
+    (Hinton, Rock & Zienkiewicz, Earthq. Eng. Struct. Dyn. 4, 245 (1976)).
+    """
+    element = V.ufl_element()
+    scalar = element.sub_elements[0] if element.block_size > 1 else element
+    basis = scalar.basix_element
+    q, w = (
+        np.asarray(a, dtype=np.float64)
+        for a in basix.make_quadrature(basis.cell_type, 2 * basis.degree + 2)
+    )
+    phi = np.asarray(basis.tabulate(0, q)[0, :, :, 0])
+    weights: npt.NDArray[np.float64] = w @ phi
+    if np.any(weights <= 1e-6 * weights.sum()):
+        diagonal = w @ phi**2
+        weights = diagonal * w.sum() / diagonal.sum()
+    return np.asarray(basis.points, dtype=np.float64), weights
 
 
 class ShellPairing(SurfacePairing):
@@ -132,6 +164,15 @@ class ShellPairing(SurfacePairing):
         corners = self._gadjacent_corners[candidates]  # (slaves, k, ADJACENT, corners, 3)
         distance = np.linalg.norm(corners - ref[:, None, None, None, :], axis=-1).min(axis=-1)
         return (label == group) & (distance >= limit)
+
+    def _quadrature(self, degree: int) -> dict[str, Any]:
+        """The nodal rule of the displacement's element (:func:`nodal_rule`)."""
+        points, weights = nodal_rule(self.V)
+        return {
+            "quadrature_rule": "custom",
+            "quadrature_points": points,
+            "quadrature_weights": weights,
+        }
 
     def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
         """The V nodes of each contact cell, (cells, nodes per cell)."""

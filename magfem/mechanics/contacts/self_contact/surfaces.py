@@ -147,20 +147,23 @@ class ContactSurfaces:
         self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
 
     def _neighbourhoods(self) -> None:
-        """Per group: its largest contact entity (m), its own exclusion E (m), how many of its
-        contact vertices lie within E of one of them at rest, and a k-d tree of its gathered
-        displacement nodes at rest (collective; see :mod:`.law`)."""
+        """Per group: its largest contact entity (m), a k-d tree of its gathered displacement
+        nodes at rest and, with ``within``, its own exclusion E (m) and how many of its contact
+        vertices lie within E of one of them at rest (collective; see :mod:`.law`)."""
         ng, gdim = len(self.groups), self.gdim
         self.own_exclusion = np.full(ng, self.law.exclusion)
         self._diameter = np.zeros(ng)
         self._crowd = np.zeros(ng, dtype=np.int64)
         self._node_tree: list[tuple[Any, npt.NDArray[np.int64]]] = []
-        if not self.law.within:
-            return
         corners = self.reference[self.facet_dofs]  # (entities, corners, gdim)
         span = np.linalg.norm(corners[:, :, None, :] - corners[:, None, :, :], axis=-1)
         np.maximum.at(self._diameter, self.entity_label, span.max(axis=(1, 2), initial=0.0))
         self.comm.Allreduce(MPI.IN_PLACE, self._diameter, op=MPI.MAX)
+        for j in range(ng):
+            index = np.flatnonzero(self._gvlabel == j)
+            self._node_tree.append((cKDTree(self._gvref[index].reshape(-1, gdim)), index))
+        if not self.law.within:
+            return
         self.own_exclusion = np.maximum(self.law.exclusion, NEIGHBOURHOOD * self._diameter)
         owned = self.nodes[self.nodes < self.size_local]
         parts = self.comm.allgather((self.reference[owned], self.node_label[owned]))
@@ -172,8 +175,6 @@ class ContactSurfaces:
                 tree = cKDTree(pts)
                 count = tree.query_ball_point(pts, self.own_exclusion[j], return_length=True)
                 self._crowd[j] = int(np.max(count))
-            index = np.flatnonzero(self._gvlabel == j)
-            self._node_tree.append((cKDTree(self._gvref[index].reshape(-1, gdim)), index))
 
     def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
         """The V nodes on each contact facet (closure dofs), (facets, nodes per facet)."""
