@@ -309,6 +309,40 @@ def test_bouncing_shell_plates_conserve_energy_and_touch_on_time(comm):
     assert np.max(h["self_contact_penetration"]) < 1.05 * static
 
 
+@pytest.mark.slow
+def test_plates_thrown_from_afar_with_long_steps_do_not_pass_through(comm):
+    """Two free plates three cells apart fly at each other at ±v with a step that would
+    carry them through each other in one step (no pair at its start: the search pairs only
+    within a cell). Self-contact bounds the step: the first is (s − a/2)/(2v), s the gap
+    between the faces and a the cell (corner to corner), so that no surfaces meet unpaired;
+    the plates then touch with the penalty acting and never cross."""
+    a = np.hypot(L, L) / CELLS
+    gap, v, dt = 3 * a, 0.1, 8e-3  # m, m/s, s: 2 v dt = 1.5 gap
+    case = _case(
+        {},
+        {"gravity": [0, 0, 0], "clamped": []},
+        {"end": 2e-2, "step": dt, "rho_inf": 1.0, "scheme": "generalized_alpha"},
+    )
+    sim = build_simulation(case, comm, robot_mesh=_plates(comm, gap))
+    middle = H + gap / 2
+    sim.integrator.v0.interpolate(
+        lambda X: np.vstack([0.0 * X[0], 0.0 * X[0], np.where(X[2] < middle, v, -v)])
+    )
+    h = sim.run(progress=False).history
+    assert h["dt"][1] == pytest.approx((gap - a / 2) / (2 * v), rel=1e-9)
+    assert np.max(h["self_contact_force"]) > 0.0  # they met, paired
+    # never deeper than the band (half a thickness; the impact's own penetration is
+    # a few um), and the upper plate is still above the lower one at the end
+    assert np.max(h["self_contact_penetration"]) < 0.5 * H
+    u = sim.model.unknowns[0]
+    X = u.function_space.tabulate_dof_coordinates()
+    z = X[:, 2] + u.x.array.reshape(-1, 3)[:, 2]
+    owned = np.arange(len(X)) < u.function_space.dofmap.index_map.size_local
+    lower = np.concatenate(comm.allgather(z[owned & (X[:, 2] < middle)]))
+    upper = np.concatenate(comm.allgather(z[owned & (X[:, 2] > middle)]))
+    assert upper.min() - lower.max() > 0.5 * H
+
+
 def test_rod_refuses_self_contact(comm):
     """The rod has no surfaces to pair: the case is refused with the key named."""
     case = parse_case(

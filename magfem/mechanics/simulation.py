@@ -57,6 +57,7 @@ from magfem.mechanics.stepping import (
     SimulationError,
     StepController,
     body_size,
+    step_limit,
     switching_instants,
 )
 from magfem.parallel import progress as progress_bar
@@ -128,6 +129,7 @@ class Simulation:
             functools.partial(switching_instants, [*problem.loads, *problem.contacts]),
             self.events.say,
             length=body_size(model),
+            limit=functools.partial(step_limit, problem.contacts),
         )
 
     @property

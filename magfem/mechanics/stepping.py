@@ -24,6 +24,10 @@
   ``min_step`` a step is accepted whatever its error (and said so). The
   estimate needs three accepted states since the start or the last switch:
   until then the step keeps its length.
+* A contact may bound the next step (``limit``, e.g. self-contact while
+  two surfaces approach faster than its search can follow,
+  :meth:`~magfem.mechanics.contacts.base.Contact.step_limit`); the nominal
+  step is kept.
 """
 
 from __future__ import annotations
@@ -87,6 +91,7 @@ class StepController:
         breakpoints: switching instants of the loads.
         say: reports a step-control event (one line).
         length: L, the size of the body (m) that ``tolerance`` is relative to.
+        limit: the longest next step the contacts allow (s; inf: any), at the accepted state.
 
     Attributes:
         dt: the nominal length of the next step (s).
@@ -102,11 +107,13 @@ class StepController:
         say: Callable[[str], None],
         *,
         length: float = 1.0,
+        limit: Callable[[], float] = lambda: np.inf,
     ):
         self.spec = spec
         self.breakpoints = breakpoints
         self.say = say
         self.length = length
+        self.limit = limit
         self.dt = spec.step
         self.steps = 0
         self.cuts = 0
@@ -162,7 +169,7 @@ class StepController:
     def next_step(self, t: float) -> tuple[float, bool]:
         """Length of the next step from t and whether it lands on a switching instant."""
         end = self.spec.end
-        dt = min(self.dt, end - t)
+        dt = min(self.dt, end - t, max(self.limit(), self.spec.min_step or 0.0))
         stop = t + dt
         ahead = self.breakpoints(t, min(t + 1.05 * dt, end))
         ahead = ahead[ahead > t + 1e-9 * dt]
@@ -282,6 +289,12 @@ def switching_instants(parts: Sequence[Any], t0: float, t1: float) -> npt.NDArra
     """Switching instants of the loads and contacts ``parts`` in (t0, t1] (s), sorted."""
     found = [np.asarray(p.breakpoints(t0, t1), dtype=float) for p in parts]
     return np.unique(np.concatenate(found)) if found else np.zeros(0)
+
+
+def step_limit(contacts: Sequence[Any]) -> float:
+    """The longest next step the ``contacts`` allow (s; inf: any; collective)."""
+    limits = [c.step_limit() for c in contacts]
+    return min((x for x in limits if x is not None), default=np.inf)
 
 
 def _effort(report: NewtonReport) -> str:

@@ -75,6 +75,10 @@ class Contact:
     def after_step(self) -> None:
         """Act on the accepted state of a dynamic step (collective)."""
 
+    def step_limit(self) -> float | None:
+        """The longest next step (s) from the accepted state, or None (any; collective)."""
+        return None
+
     def breakpoints(self, t0: float, t1: float) -> npt.NDArray[np.float64]:
         """Instants in (t0, t1] (s) where the contact switches (steps land on them), sorted."""
         return np.zeros(0)

@@ -114,6 +114,29 @@ class SelfContact(Contact):
         else:
             self.pairing.search(u.copy())
 
+    def step_limit(self) -> float | None:
+        """The longest next step (s) at which an unpaired approach stays outside the pairs.
+
+        The search pairs surfaces less than a cell a apart (the smallest of
+        the groups' cells) at the start of a step; within it the penalty acts
+        implicitly on those pairs only. Two surfaces s apart (nearest vertices
+        of two groups, less the offset) whose points move at most at v close
+        by at most 2 v Δt, so Δt ≤ max(s − a/2, a/2)/(2 v) keeps surfaces
+        farther than a cell from meeting unpaired within the step, and paired
+        points within half a cell of their pair. Pairs of a group with itself
+        are not bounded. None when nothing moves (quasi-static runs too).
+        """
+        integ = self.integrator
+        if not integ.dynamic:
+            return None
+        p = self.pairing
+        v = integ.v0.x.array.reshape(-1, p.gdim)[p.vnodes]
+        speed = p.comm.allreduce(float(np.linalg.norm(v, axis=1).max(initial=0.0)), op=MPI.MAX)
+        if speed == 0.0 or len(p.groups) < 2:
+            return None
+        cell = float(p.cell_size)
+        return max(p.clearance(integ.u0.x.array) - 0.5 * cell, 0.5 * cell) / (2.0 * speed)
+
     # --- observation ------------------------------------------------------------------------
 
     @property

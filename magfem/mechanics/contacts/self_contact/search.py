@@ -75,6 +75,7 @@ from magfem.mechanics.contacts.self_contact.law import (
     CANDIDATES,
     FACING,
     INSIDE,
+    NEIGHBOURHOOD,
     SelfContactLaw,
 )
 from magfem.mechanics.contacts.self_contact.surfaces import ContactSurfaces
@@ -147,6 +148,7 @@ class SurfacePairing(ContactSurfaces):
         self._anchor = np.full(self.reference.shape, np.nan)
         """Per paired contact vertex: its master vertex at rest (m)."""
         self.vertex_displacement = fem.Function(self.Vc)
+        self._clearance_u = fem.Function(V)
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
         self.engaged = False
@@ -270,6 +272,32 @@ class SurfacePairing(ContactSurfaces):
         self._anchor[nodes] = np.where((partner >= 0)[:, None], gref[anchor], np.nan)
         self._pair_nodes()
         self.place(self.u_geom.x.array)
+
+    def clearance(self, displacement: npt.NDArray[Any]) -> float:
+        """Smallest distance (m) from a contact vertex to the vertices of the other groups at
+        ``displacement`` (local V array), less the offset (collective; inf: none).
+
+        Only vertices at least two cells (:attr:`cell_size`) from every other
+        group at rest count as the nearer end: where groups meet (a fin on the
+        body) the neighbours across the seam are always a cell apart.
+        """
+        gdim = self.gdim
+        self._clearance_u.x.array[:] = displacement
+        self.vertex_displacement.interpolate(self._clearance_u)
+        nodes = self.nodes[self.nodes < self.size_local]
+        x = self.reference[nodes] + self.vertex_displacement.x.array.reshape(-1, gdim)[nodes]
+        parts = self.comm.allgather((x, self.node_label[nodes], self.reference[nodes]))
+        gx, glabel, gref = (np.concatenate([p[k] for p in parts]) for k in range(3))
+        nearest = np.inf
+        for j in range(len(self.groups)):
+            mine, others = glabel == j, glabel != j
+            if not (mine.any() and others.any()):
+                continue
+            alone = cKDTree(gref[others]).query(gref[mine])[0] >= NEIGHBOURHOOD * self.cell_size
+            if alone.any():
+                d = cKDTree(gx[others].reshape(-1, gdim)).query(gx[mine][alone])[0]
+                nearest = min(nearest, float(d.min()))
+        return nearest - self.offset
 
     def _match(
         self,

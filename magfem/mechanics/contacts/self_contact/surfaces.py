@@ -176,6 +176,11 @@ class ContactSurfaces:
                 count = tree.query_ball_point(pts, self.own_exclusion[j], return_length=True)
                 self._crowd[j] = int(np.max(count))
 
+    @property
+    def cell_size(self) -> float:
+        """a: the smallest of the groups' largest contact cells or facets, corner to corner (m)."""
+        return float(self._diameter.min())
+
     def _entity_nodes(self, facets: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
         """The V nodes on each contact facet (closure dofs), (facets, nodes per facet)."""
         domain, V = self.domain, self.V
