@@ -124,6 +124,21 @@ def _pressed_in(comm: MPI.Comm) -> tuple[Simulation, np.ndarray]:
     return sim, bc_dofs
 
 
+def _flying(comm: MPI.Comm, gap: float, v: float, dt: float, end: float) -> Simulation:
+    """The plates ``gap`` apart, free, flying at each other at ±v (no gravity, ρ∞ = 1)."""
+    case = _case(
+        {},
+        {"gravity": [0, 0, 0], "clamped": []},
+        {"end": end, "step": dt, "rho_inf": 1.0, "scheme": "generalized_alpha"},
+    )
+    sim = build_simulation(case, comm, robot_mesh=_plates(comm, gap))
+    middle = H + gap / 2  # between the plates' mid-surfaces
+    sim.integrator.v0.interpolate(
+        lambda X: np.vstack([0.0 * X[0], 0.0 * X[0], np.where(X[2] < middle, v, -v)])
+    )
+    return sim
+
+
 def test_shell_coupled_linearisation_matches_finite_differences(comm):
     sim, bc_dofs = _pressed_in(comm)
     contact = sim.problem.contacts[0]
@@ -279,16 +294,7 @@ def test_bouncing_shell_plates_conserve_energy_and_touch_on_time(comm):
     through the impact (second order in Δt), they separate, and the faces interpenetrate
     by no more than the penalty ramp's static penetration under the impact's pressure."""
     gap, v, dt = 2e-5, 0.1, 1e-6
-    case = _case(
-        {},
-        {"gravity": [0, 0, 0], "clamped": []},
-        {"end": 2.5e-4, "step": dt, "rho_inf": 1.0, "scheme": "generalized_alpha"},
-    )
-    sim = build_simulation(case, comm, robot_mesh=_plates(comm, gap))
-    middle = H + gap / 2  # the upper plate's mid-surface is at z = middle + gap / 2
-    sim.integrator.v0.interpolate(
-        lambda X: np.vstack([0.0 * X[0], 0.0 * X[0], np.where(X[2] < 0.5 * middle, v, -v)])
-    )
+    sim = _flying(comm, gap, v, dt, 2.5e-4)
     result = sim.run(progress=False)
     h = result.history
     e0 = 2 * 0.5 * RHO * L * L * H * v**2  # J, both plates
@@ -318,16 +324,8 @@ def test_plates_thrown_from_afar_with_long_steps_do_not_pass_through(comm):
     the plates then touch with the penalty acting and never cross."""
     a = np.hypot(L, L) / CELLS
     gap, v, dt = 3 * a, 0.1, 8e-3  # m, m/s, s: 2 v dt = 1.5 gap
-    case = _case(
-        {},
-        {"gravity": [0, 0, 0], "clamped": []},
-        {"end": 2e-2, "step": dt, "rho_inf": 1.0, "scheme": "generalized_alpha"},
-    )
-    sim = build_simulation(case, comm, robot_mesh=_plates(comm, gap))
+    sim = _flying(comm, gap, v, dt, 2e-2)
     middle = H + gap / 2
-    sim.integrator.v0.interpolate(
-        lambda X: np.vstack([0.0 * X[0], 0.0 * X[0], np.where(X[2] < middle, v, -v)])
-    )
     h = sim.run(progress=False).history
     assert h["dt"][1] == pytest.approx((gap - a / 2) / (2 * v), rel=1e-9)
     assert np.max(h["self_contact_force"]) > 0.0  # they met, paired
