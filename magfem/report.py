@@ -310,7 +310,26 @@ def _scene_section(
     fig = _figure(study, done, failed, sweep_dir, figures)
     if fig is not None:
         out += [f"![{study.ident}]({fig.relative_to(docs).as_posix()})", ""]
+    gif = _animation(study, done, sweep_dir, figures)
+    if gif is not None:
+        name = gif.relative_to(docs).as_posix()
+        out += [f"Animation of the run {done[-1]['point']}: ![{study.ident} motion]({name})", ""]
     return out
+
+
+def _animation(
+    study: Study, done: list[dict[str, Any]], sweep_dir: Path, figures: Path
+) -> Path | None:
+    """With ``animation``: the last finished run's motion.gif copied to ``figures`` (None
+    without one)."""
+    if not (study.animation and done):
+        return None
+    src = sweep_dir / "points" / done[-1]["point"] / "motion.gif"
+    if not src.is_file():
+        return None
+    dest = figures / f"scenes_{re.sub(r'[^a-z0-9]+', '_', study.ident)}.gif"
+    shutil.copyfile(src, dest)
+    return dest
 
 
 def _setup_lines(study: Study) -> list[str]:

@@ -87,6 +87,11 @@ class Study:
         doc="history columns plotted against time, one panel each and a line per run (default: "
         "the sweep plot, or the single run's angle history)",
     )
+    animation: bool = flag(
+        False,
+        doc="show the motion.gif of the study's last finished run below its figure (copied to "
+        "docs/figures/scenes_<id>.gif)",
+    )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(
         "", doc="why the study may not have run yet (its cost), shown while it has not"

@@ -245,3 +245,33 @@ def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypat
     figure.unlink()
     page = build_report(tmp_path / "out", **kwargs).read_text()
     assert "![probe]" not in page and not figure.exists()
+
+
+def test_report_animation_shows_the_last_finished_runs_motion(tmp_path, repo, monkeypatch):
+    """``animation = true``: the last finished run's motion.gif is copied next to the figures
+    and shown in the scene's section; without a gif (or without the key) nothing is."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    text = (
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+        'params = ["time.end=10ms,20ms"]\nanimation = true\n'
+    )
+    (folder / "probe.toml").write_text(text, encoding="utf-8")
+    study = load_studies(folder)[0]
+    fprint = fingerprint(Path(study.case), study.sets)
+    points = build_points([parse_param(p) for p in study.params], fprint)
+    for pt in points:
+        point = tmp_path / "out" / "probe" / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+        (point / "motion.gif").write_bytes(b"GIF89a" + pt.ident.encode())
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    gif = tmp_path / "docs" / "figures" / "scenes_probe.gif"
+    shown = f"Animation of the run {points[-1].ident}: ![probe motion](figures/scenes_probe.gif)"
+    assert shown in page
+    assert gif.read_bytes() == b"GIF89a" + points[-1].ident.encode()
+    (folder / "probe.toml").write_text(text.replace("animation = true\n", ""), encoding="utf-8")
+    assert "![probe motion]" not in build_report(tmp_path / "out", **kwargs).read_text()
