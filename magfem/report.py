@@ -24,16 +24,13 @@ import functools
 import json
 import math
 import re
-import shutil
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from matplotlib.figure import Figure
-
 from magfem.case import load_case
 from magfem.config import CaseError
-from magfem.mechanics.columns import read_history
+from magfem.report_figures import animation, scene_figure
 from magfem.study import STUDIES_DIR, Study, load_studies
 from magfem.sweep import (
     SweepResult,
@@ -307,29 +304,14 @@ def _scene_section(
             out += _difference_lines(study, first, last)
     if failed:
         out += _failed_lines(failed, sweep_dir)
-    fig = _figure(study, done, failed, sweep_dir, figures)
+    fig = scene_figure(study, done, failed, sweep_dir, figures)
     if fig is not None:
         out += [f"![{study.ident}]({fig.relative_to(docs).as_posix()})", ""]
-    gif = _animation(study, done, sweep_dir, figures)
+    gif = animation(study, done, sweep_dir, figures)
     if gif is not None:
         name = gif.relative_to(docs).as_posix()
         out += [f"Animation of the run {done[-1]['point']}: ![{study.ident} motion]({name})", ""]
     return out
-
-
-def _animation(
-    study: Study, done: list[dict[str, Any]], sweep_dir: Path, figures: Path
-) -> Path | None:
-    """With ``animation``: the last finished run's motion.gif copied to ``figures`` (None
-    without one)."""
-    if not (study.animation and done):
-        return None
-    src = sweep_dir / "points" / done[-1]["point"] / "motion.gif"
-    if not src.is_file():
-        return None
-    dest = figures / f"scenes_{re.sub(r'[^a-z0-9]+', '_', study.ident)}.gif"
-    shutil.copyfile(src, dest)
-    return dest
 
 
 def _setup_lines(study: Study) -> list[str]:
@@ -442,65 +424,3 @@ def _failed_lines(failed: list[dict[str, Any]], sweep_dir: Path) -> list[str]:
         last = log.read_text(encoding="utf-8").strip().splitlines()[-1:] if log.is_file() else []
         out.append(f"  - `{rec['params']}`: `{last[0][:200] if last else '?'}`")
     return [*out, ""]
-
-
-def _figure(
-    study: Study,
-    done: list[dict[str, Any]],
-    failed: list[dict[str, Any]],
-    sweep_dir: Path,
-    figures: Path,
-) -> Path | None:
-    """The scene's figure in ``figures``: the study's ``figure`` histories (of the finished
-    runs and of the failed ones until they failed), else the sweep plot (several runs) or the
-    single run's angle history; None without a run to show."""
-    dest = figures / f"scenes_{re.sub(r'[^a-z0-9]+', '_', study.ident)}.png"
-    if study.figure and (done or failed):
-        return _history_figure(study.figure, [*done, *failed], sweep_dir, dest)
-    src = None
-    if len(done) == 1:
-        src = sweep_dir / "points" / done[0]["point"] / "angle.png"
-    elif len(done) > 1:
-        src = sweep_dir / "sweep.png"
-    if src is None or not src.is_file():
-        return None
-    shutil.copyfile(src, dest)
-    return dest
-
-
-_SCALES = {"m": (1e3, "mm"), "rad": (180.0 / math.pi, "°"), "m/s": (1e3, "mm/s")}
-"""History units shown scaled on the figure: factor and shown unit."""
-
-
-def _history_figure(
-    columns: Sequence[str], records: list[dict[str, Any]], sweep_dir: Path, dest: Path
-) -> Path | None:
-    """One panel per history column against time (ms), a line per run labelled by
-    its parameters; columns a run's history lacks are left out (None if all are). Lengths,
-    angles and speeds whose unit the history names are shown in mm, ° and mm/s; a column
-    without a unit in the history's header in SI."""
-    runs = []
-    for rec in records:
-        history = sweep_dir / "points" / str(rec["point"]) / "history.csv"
-        if history.is_file():
-            data, units = read_history(history)
-            label = ", ".join(f"{k}={v}" for k, v in rec["params"].items())
-            runs.append((label, data, units))
-    shown = [c for c in columns if any(c in data for _, data, _ in runs)]
-    if not shown:
-        return None
-    fig = Figure(figsize=(7, 1.2 + 2.0 * len(shown)), dpi=110)
-    axes = fig.subplots(len(shown), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, column in zip(axes, shown, strict=True):
-        unit = next((u.get(column) for _, d, u in runs if column in d), None) or ""
-        factor, shown_unit = _SCALES.get(unit, (1.0, unit))
-        for label, data, _ in runs:
-            if column in data:
-                ax.plot(1e3 * data["time"], factor * data[column], label=label)
-        ax.set_ylabel(f"{column} ({shown_unit or 'SI'})")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize="small")
-    axes[-1].set_xlabel("time (ms)")
-    fig.tight_layout()
-    fig.savefig(dest)
-    return dest

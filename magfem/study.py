@@ -89,8 +89,8 @@ class Study:
     )
     animation: bool = flag(
         False,
-        doc="show the motion.gif of the study's last finished run below its figure (copied to "
-        "docs/figures/scenes_<id>.gif)",
+        doc="show the motion.gif of the study's last finished run below its figure (copied "
+        "next to the figures as scenes_<id>.gif)",
     )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(

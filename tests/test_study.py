@@ -22,6 +22,7 @@ GOOD = {
     "compare_by": "time.end",
     "compare_also": ["field.sources.0.waveform.frequency"],
     "figure": ["com_x"],
+    "animation": True,
     "notes": "a note",
     "pending": "why not yet",
     "unresolved": "why not a prediction",
@@ -65,7 +66,7 @@ def test_text_keys_are_one_paragraph(tmp_path, repo, monkeypatch):
 @pytest.mark.parametrize(
     ("name", "change", "message"),
     [
-        ("probe", {"repeat": 2}, "repeat = 2: unknown key; allowed keys are case, columns"),
+        ("probe", {"repeat": 2}, "repeat = 2: unknown key; allowed keys are animation, case"),
         ("probe", {"title": None}, "title: missing required key"),
         ("probe", {"paired": "yes"}, "paired = 'yes': must be true or false"),
         ("probe", {"params": []}, "params = []: give at least one NAME=VALUES text"),
