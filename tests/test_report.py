@@ -215,26 +215,35 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
 
 
+_PROBE = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+_PROBE += 'params = ["time.end=10ms,20ms"]\n'
+
+
+def _probe_points(folder: Path, out: Path, text: str, status: str) -> list[Path]:
+    """The study ``text`` written to ``folder``/probe.toml and its two points' folders in
+    ``out`` with a record of ``status`` (runs of another machine, as the report reads them)."""
+    folder.mkdir()
+    (folder / "probe.toml").write_text(text, encoding="utf-8")
+    study = load_studies(folder)[0]
+    fprint = fingerprint(Path(study.case), study.sets)
+    points = []
+    for pt in build_points([parse_param(p) for p in study.params], fprint):
+        point = out / "probe" / "points" / pt.ident
+        point.mkdir(parents=True)
+        record = {"params": pt.params, "status": status, "wall_s": 1.0, "fingerprint": fprint}
+        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+        points.append(point)
+    return points
+
+
 @pytest.mark.parametrize("status", ["done", "failed"])
 def test_report_figure_plots_the_named_history_columns(tmp_path, repo, monkeypatch, status):
     """``figure = [...]``: the scene's figure is those history columns against time, one
     line per run (a failed run's history until it failed); a column no run has is left out,
     and with none left there is no figure."""
     monkeypatch.chdir(repo)
-    folder = tmp_path / "studies"
-    folder.mkdir()
-    text = (
-        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
-        'params = ["time.end=10ms,20ms"]\nfigure = ["com_x", "no_such_column"]\n'
-    )
-    (folder / "probe.toml").write_text(text, encoding="utf-8")
-    study = load_studies(folder)[0]
-    fprint = fingerprint(Path(study.case), study.sets)
-    for pt in build_points([parse_param(p) for p in study.params], fprint):
-        point = tmp_path / "out" / "probe" / "points" / pt.ident
-        point.mkdir(parents=True)
-        record = {"params": pt.params, "status": status, "wall_s": 1.0, "fingerprint": fprint}
-        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
+    folder, text = tmp_path / "studies", _PROBE + 'figure = ["com_x", "no_such_column"]\n'
+    for point in _probe_points(folder, tmp_path / "out", text, status):
         (point / "history.csv").write_text("time [s],com_x [m]\n0,0\n0.01,0.002\n")
     kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
     page = build_report(tmp_path / "out", **kwargs).read_text()
@@ -251,27 +260,15 @@ def test_report_animation_shows_the_last_finished_runs_motion(tmp_path, repo, mo
     """``animation = true``: the last finished run's motion.gif is copied next to the figures
     and shown in the scene's section; without a gif (or without the key) nothing is."""
     monkeypatch.chdir(repo)
-    folder = tmp_path / "studies"
-    folder.mkdir()
-    text = (
-        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
-        'params = ["time.end=10ms,20ms"]\nanimation = true\n'
-    )
-    (folder / "probe.toml").write_text(text, encoding="utf-8")
-    study = load_studies(folder)[0]
-    fprint = fingerprint(Path(study.case), study.sets)
-    points = build_points([parse_param(p) for p in study.params], fprint)
-    for pt in points:
-        point = tmp_path / "out" / "probe" / "points" / pt.ident
-        point.mkdir(parents=True)
-        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
-        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
-        (point / "motion.gif").write_bytes(b"GIF89a" + pt.ident.encode())
+    folder, text = tmp_path / "studies", _PROBE + "animation = true\n"
+    points = _probe_points(folder, tmp_path / "out", text, "done")
+    for point in points:
+        (point / "motion.gif").write_bytes(b"GIF89a" + point.name.encode())
     kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
     page = build_report(tmp_path / "out", **kwargs).read_text()
     gif = tmp_path / "docs" / "figures" / "scenes_probe.gif"
-    shown = f"Animation of the run {points[-1].ident}: ![probe motion](figures/scenes_probe.gif)"
+    shown = f"Animation of the run {points[-1].name}: ![probe motion](figures/scenes_probe.gif)"
     assert shown in page
-    assert gif.read_bytes() == b"GIF89a" + points[-1].ident.encode()
+    assert gif.read_bytes() == b"GIF89a" + points[-1].name.encode()
     (folder / "probe.toml").write_text(text.replace("animation = true\n", ""), encoding="utf-8")
     assert "![probe motion]" not in build_report(tmp_path / "out", **kwargs).read_text()
