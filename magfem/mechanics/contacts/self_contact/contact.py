@@ -134,8 +134,8 @@ class SelfContact(Contact):
         speed = p.comm.allreduce(float(np.linalg.norm(v, axis=1).max(initial=0.0)), op=MPI.MAX)
         if speed == 0.0 or len(p.groups) < 2:
             return None
-        cell = float(p.cell_size)
-        return max(p.clearance(integ.u0.x.array) - 0.5 * cell, 0.5 * cell) / (2.0 * speed)
+        a = p.cell_size
+        return max(p.clearance(integ.u0.x.array) - 0.5 * a, 0.5 * a) / (2.0 * speed)
 
     # --- observation ------------------------------------------------------------------------
 

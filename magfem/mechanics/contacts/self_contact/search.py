@@ -149,6 +149,7 @@ class SurfacePairing(ContactSurfaces):
         """Per paired contact vertex: its master vertex at rest (m)."""
         self.vertex_displacement = fem.Function(self.Vc)
         self._clearance_u = fem.Function(V)
+        self._ends = self._clearance_ends()
         self.stiffness = fem.Constant(domain, np.float64(law.stiffness))
         self.onset = fem.Constant(domain, np.float64(law.onset))
         self.engaged = False
@@ -278,26 +279,38 @@ class SurfacePairing(ContactSurfaces):
         ``displacement`` (local V array), less the offset (collective; inf: none).
 
         Only vertices at least two cells (:attr:`cell_size`) from every other
-        group at rest count as the nearer end: where groups meet (a fin on the
-        body) the neighbours across the seam are always a cell apart.
+        group at rest count as the nearer end (:meth:`_clearance_ends`): where
+        groups meet (a fin on the body) the neighbours across the seam are
+        always a cell apart.
         """
         gdim = self.gdim
         self._clearance_u.x.array[:] = displacement
         self.vertex_displacement.interpolate(self._clearance_u)
         nodes = self.nodes[self.nodes < self.size_local]
         x = self.reference[nodes] + self.vertex_displacement.x.array.reshape(-1, gdim)[nodes]
-        parts = self.comm.allgather((x, self.node_label[nodes], self.reference[nodes]))
-        gx, glabel, gref = (np.concatenate([p[k] for p in parts]) for k in range(3))
+        gx = np.concatenate(self.comm.allgather(x)).reshape(-1, gdim)
         nearest = np.inf
-        for j in range(len(self.groups)):
-            mine, others = glabel == j, glabel != j
-            if not (mine.any() and others.any()):
-                continue
-            alone = cKDTree(gref[others]).query(gref[mine])[0] >= NEIGHBOURHOOD * self.cell_size
-            if alone.any():
-                d = cKDTree(gx[others].reshape(-1, gdim)).query(gx[mine][alone])[0]
-                nearest = min(nearest, float(d.min()))
+        for ends, others in self._ends:
+            if ends.size and others.size:
+                nearest = min(nearest, float(cKDTree(gx[others]).query(gx[ends])[0].min()))
         return nearest - self.offset
+
+    def _clearance_ends(self) -> list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]:
+        """Per group, in the gathered order of the owned contact vertices: its vertices two
+        cells or more from every other group at rest, and the other groups' vertices
+        (collective; the reference configuration's part of :meth:`clearance`)."""
+        nodes = self.nodes[self.nodes < self.size_local]
+        parts = self.comm.allgather((self.node_label[nodes], self.reference[nodes]))
+        glabel = np.concatenate([p[0] for p in parts])
+        gref = np.concatenate([p[1] for p in parts]).reshape(-1, self.gdim)
+        out = []
+        for j in range(len(self.groups)):
+            mine, others = np.flatnonzero(glabel == j), np.flatnonzero(glabel != j)
+            if mine.size and others.size:
+                far = cKDTree(gref[others]).query(gref[mine])[0] >= NEIGHBOURHOOD * self.cell_size
+                mine = mine[far]
+            out.append((mine, others))
+        return out
 
     def _match(
         self,
