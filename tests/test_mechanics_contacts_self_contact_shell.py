@@ -29,12 +29,14 @@ import pytest
 import ufl
 from dolfinx import fem, la
 from dolfinx.fem import petsc as fem_petsc
+from dolfinx.mesh import CellType, create_unit_square
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from magfem.case import parse_case
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh
+from magfem.mechanics.contacts.self_contact.shell import nodal_rule
 from magfem.mechanics.simulation import Simulation
 from magfem.pipeline import build_simulation
 from verification import references as ref
@@ -137,6 +139,27 @@ def _flying(comm: MPI.Comm, gap: float, v: float, dt: float, end: float) -> Simu
         lambda X: np.vstack([0.0 * X[0], 0.0 * X[0], np.where(X[2] < middle, v, -v)])
     )
     return sim
+
+
+@pytest.mark.parametrize("cell", [CellType.quadrilateral, CellType.triangle])
+@pytest.mark.parametrize("degree", [1, 2, 3])
+def test_nodal_rule_is_positive_and_integrates_linear_fields(comm, cell, degree):
+    """The shell's contact rule at the element's nodes: positive weights summing to the
+    reference cell's area, exact for linear fields (any rule with ∫φ_i weights, and the
+    symmetric mass-diagonal weights of P2 triangles, whose ∫φ_i vanish at the vertices); on
+    quadrilaterals ∫φ_i of the GLL nodes is the Gauss–Lobatto rule: Simpson's 1/6, 4/6, 1/6
+    per direction at P2, exact for x³y² at P3 (1/12)."""
+    mesh = create_unit_square(MPI.COMM_SELF, 1, 1, cell)
+    points, weights = nodal_rule(fem.functionspace(mesh, ("Lagrange", degree, (3,))))
+    area = 1.0 if cell == CellType.quadrilateral else 0.5
+    assert np.all(weights > 0) and weights.sum() == pytest.approx(area, rel=1e-12)
+    exact = area * (1.0 / 2 + 2.0 / 2) if cell == CellType.quadrilateral else 1.0 / 6 + 2.0 / 6
+    assert weights @ (points[:, 0] + 2 * points[:, 1]) == pytest.approx(exact, rel=1e-12)
+    if cell == CellType.quadrilateral and degree == 2:
+        simpson = np.outer([1, 4, 1], [1, 4, 1]).ravel() / 36
+        assert sorted(weights) == pytest.approx(sorted(simpson), rel=1e-12)
+    if cell == CellType.quadrilateral and degree == 3:
+        assert weights @ (points[:, 0] ** 3 * points[:, 1] ** 2) == pytest.approx(1 / 12)
 
 
 def test_shell_coupled_linearisation_matches_finite_differences(comm):
