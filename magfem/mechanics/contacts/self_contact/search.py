@@ -450,11 +450,11 @@ class SurfacePairing(ContactSurfaces):
         first = np.argmax(vertex_group == fgroup[:, None], axis=1)
         fanchor = self._anchor[self.facet_dofs[np.arange(len(first)), first]]
         per = self.facet_vnodes.shape[1]
-        node = self.facet_vnodes.ravel()
+        node, node_group = self.facet_vnodes.ravel(), np.repeat(fgroup, per)
         # every node takes the facet of the largest group around it
-        order = np.lexsort((np.repeat(fgroup, per), node))
+        order = np.lexsort((node_group, node))
         last = order[np.r_[np.flatnonzero(np.diff(node[order])), node.size - 1]]
-        group[node[last]] = np.repeat(fgroup, per)[last]
+        group[node[last]] = node_group[last]
         anchor[node[last]] = np.repeat(fanchor, per, axis=0)[last]
         group[~np.isfinite(anchor[:, 0])] = -1
         return group, anchor
