@@ -28,7 +28,9 @@ from the repository root:
 
       .venv/bin/python -m benchmarks.linear_solvers scaling --size 0.15mm --ranks 1 2
 
-  On a machine with more cores: ``--ranks 1 2 4 8 16``.
+  On a machine with more cores: ``--ranks 1 2 4 8 16``. ``--krylov NAME``
+  runs the steps with a Krylov solver of :data:`KRYLOV` instead, and
+  ``--set KEY=VALUE`` passes any other case override.
 
 * ``lagged``: one rank, the direct solve at every Newton iteration against
   GMRES preconditioned by the LU of an earlier Jacobian (:data:`LAGGED`)::
@@ -91,6 +93,21 @@ SOLVERS: list[tuple[str, dict[str, Any], bool]] = [
     ("GMRES + block Jacobi LU, 4 per rank", GMRES | {"pc_type": "bjacobi"} | LU_BLOCKS, True),
 ]
 """(name, PETSc options, runs on several ranks)."""
+
+KRYLOV = {
+    "bjacobi": GMRES | {"pc_type": "bjacobi", "pc_bjacobi_local_blocks": 4} | LU_BLOCKS,
+    "asm-lu": GMRES | {"pc_type": "asm", "pc_asm_local_blocks": 4, "pc_asm_overlap": 1} | LU_BLOCKS,
+    "gamg": GMRES | {"pc_type": "gamg"},
+}
+"""Krylov solvers that ``scaling --krylov NAME`` runs whole steps with instead of ``auto``."""
+
+
+def krylov_overrides(name: str) -> list[str]:
+    """The case overrides that make the Newton solver use ``KRYLOV[name]``."""
+    options = KRYLOV[name] | (
+        {"sub_pc_factor_zeropivot": 0} if "sub_pc_type" in KRYLOV[name] else {}
+    )
+    return [f"solver.petsc_options.{key}={value}" for key, value in options.items()]
 
 
 def failure_shell(size: str, kind: str, *overrides: str) -> Case:
@@ -221,7 +238,9 @@ def steps(size: str, kind: str, count: int, *overrides: str) -> dict[str, Any]:
     }
 
 
-def scaling(sizes: list[str], kind: str, ranks: list[int], count: int) -> None:
+def scaling(
+    sizes: list[str], kind: str, ranks: list[int], count: int, overrides: list[str]
+) -> None:
     """Runs :func:`steps` under ``mpirun -n K`` per K and prints the speed-up table."""
     mpirun = Path(sys.executable).parent / "mpirun"
     report = Report(
@@ -235,8 +254,10 @@ def scaling(sizes: list[str], kind: str, ranks: list[int], count: int) -> None:
         for k in ranks:
             cmd = [str(mpirun), "-n", str(k), sys.executable, "-m", "benchmarks.linear_solvers"]
             cmd += ["steps", "--size", size, "--type", kind, "--steps", str(count)]
+            cmd += [f"--set={item}" for item in overrides]
             out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-            run = json.loads(out.strip().splitlines()[-1])
+            # the last JSON line: PETSc may warn of unused options after it
+            run = json.loads([line for line in out.splitlines() if line.startswith("{")][-1])
             per = run["wall"] / run["iterations"]
             base = base or per
             split = " | ".join(
@@ -272,16 +293,21 @@ def main() -> None:
     parser.add_argument("--type", default="II", choices=("I", "II", "III"), help="triangle")
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--steps", type=int, default=3, help="steps timed after the first")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="case override (repeat)"
+    )
+    parser.add_argument("--krylov", choices=sorted(KRYLOV), help="scaling: whole steps with it")
     args = parser.parse_args()
     sizes = args.size or ["0.15mm"]
     if args.part == "solvers":
         solvers(sizes, args.type)
     elif args.part == "scaling":
-        scaling(sizes, args.type, args.ranks, args.steps)
+        extra = krylov_overrides(args.krylov) if args.krylov else []
+        scaling(sizes, args.type, args.ranks, args.steps, args.set + extra)
     elif args.part == "lagged":
         lagged(sizes[0], args.type, args.steps)
     else:
-        rank0_print(json.dumps(steps(sizes[0], args.type, args.steps)))
+        rank0_print(json.dumps(steps(sizes[0], args.type, args.steps, *args.set)))
 
 
 if __name__ == "__main__":
