@@ -30,7 +30,7 @@ import math
 import sys
 import time
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -190,9 +190,29 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm, stop: StopSig
         hint = f"continue with: magfem run {args.case} --resume {outdir}"
         raise RunInterrupted(err.signum, f"{err.message}; {hint}") from None
     _say(comm, f"finished  in {time.perf_counter() - t0:.1f} s on {comm.size} rank(s)")
+    _say(comm, solver_effort(result.effort, result.timings))
     for label, path in result.paths.items():
         _say(comm, f"wrote     {label}: {path}")
     return 0
+
+
+def solver_effort(effort: Mapping[str, int], timings: Mapping[str, float]) -> str:
+    """The run's Newton work in one line: iterations, Jacobians (why rebuilt), times (s)."""
+    line = f"solver    {effort['iterations']} Newton iterations, {effort['jacobians']} Jacobians"
+    if "rebuilt_start" in effort:
+        line += (
+            f" (kept for {effort['iterations'] - effort['jacobians']} iterations; rebuilt after"
+            f" slow contraction {effort['rebuilt_contraction']}, a new time step"
+            f" {effort['rebuilt_time_step']}, a start or failed solve {effort['rebuilt_start']})"
+        )
+    return (
+        line
+        + "; "
+        + ", ".join(
+            f"{key.replace('_', ' ')} {timings[key]:.1f} s"
+            for key in ("residual", "jacobian", "linear_solve")
+        )
+    )
 
 
 def _write_resolved(

@@ -72,8 +72,8 @@ def _rod_run(
     sim = build_simulation(case, MPI.COMM_WORLD)
     pc = sim.solver.snes.getKSP().getPC()
     factor = pc.getFactorSolverType() if pc.getType() == "lu" else None
-    history = sim.run(progress=False).history
-    return sim.solver.linear_solver, factor, history, sim.solver.timings
+    result = sim.run(progress=False)
+    return sim.solver.linear_solver, factor, result.history, sim.solver.timings, result.effort
 
 
 @pytest.mark.slow
@@ -86,10 +86,10 @@ def test_auto_solver_matches_mumps_on_the_rod():
     (1e-9 of the largest angle leaves room for a few ulps in 12 steps, far below
     the 0.1° = 2e-3 rad of the coarsest physics difference the histories resolve).
     """
-    chosen, factor, auto, _ = _rod_run("auto")
+    chosen, factor, auto, *_ = _rod_run("auto")
     expected = "petsc" if MPI.COMM_WORLD.size == 1 else "mumps"
     assert (chosen, factor) == (expected, expected)
-    _, mumps_factor, mumps, _ = _rod_run("mumps")
+    _, mumps_factor, mumps, *_ = _rod_run("mumps")
     assert mumps_factor == "mumps"
     assert np.array_equal(auto["newton_iterations"], mumps["newton_iterations"])
     angle, reference = auto["angle_arm"], mumps["angle_arm"]
@@ -105,9 +105,9 @@ def test_krylov_newton_matches_the_direct_solver_on_the_rod():
     1.4e-12 rad of 0.95). Without the Krylov defaults (ksp preonly: one V-cycle per Newton
     iteration) the initial-acceleration solve fails."""
     gamg = {"pc_type": "gamg", "ksp_rtol": 1e-10}
-    chosen, factor, krylov, _ = _rod_run("auto", gamg, fixed_step=0.0625e-3)
+    chosen, factor, krylov, *_ = _rod_run("auto", gamg, fixed_step=0.0625e-3)
     assert (chosen, factor) == ("gamg", None)
-    _, _, mumps, _ = _rod_run("mumps", fixed_step=0.0625e-3)
+    _, _, mumps, *_ = _rod_run("mumps", fixed_step=0.0625e-3)
     angle, reference = krylov["angle_arm"], mumps["angle_arm"]
     assert angle.shape == reference.shape
     assert np.max(np.abs(reference)) > 0.5  # the arm rose (rad)
@@ -122,8 +122,17 @@ def test_kept_jacobian_converges_to_the_same_steps_with_fewer_factorisations():
     (not refreshed, or refactorised from a stale matrix) would stop Newton short or drive
     it elsewhere, and more factorisations than steps would mean nothing was kept."""
     step, tight = 0.0625e-3, {"rtol": 1e-10, "max_iterations": 40}
-    _, _, full, full_t = _rod_run("auto", fixed_step=step, **tight)
-    _, _, kept, kept_t = _rod_run("auto", fixed_step=step, reuse_jacobian=True, **tight)
+    _, _, full, full_t, full_effort = _rod_run("auto", fixed_step=step, **tight)
+    _, _, kept, kept_t, effort = _rod_run("auto", fixed_step=step, reuse_jacobian=True, **tight)
+    # the run's effort against the history's own count (SNES's iterations per step): every
+    # iteration asks for a Jacobian; on fixed steps without a failure the kept one is rebuilt
+    # only after slow contraction, besides the run's first iteration
+    for history, counts in ((full, full_effort), (kept, effort)):
+        assert counts["iterations"] == int(np.sum(history["newton_iterations"]))
+    assert full_effort["jacobians"] == full_effort["iterations"]
+    assert "rebuilt_start" not in full_effort
+    assert effort["rebuilt_start"] == 1 and effort["rebuilt_time_step"] == 0
+    assert effort["rebuilt_contraction"] == effort["jacobians"] - 1
     assert full_t.jacobian_reuses == 0
     assert kept_t.jacobian_reuses > 0
     steps = len(kept["time"]) - 1
@@ -173,3 +182,4 @@ def test_jacobian_reuse_refreshes_on_a_new_step_size_slow_contraction_or_failure
     reuse.valid = False  # what a failed solve sets
     reuse.start()
     assert not reuse.keep(snes)
+    assert reuse.rebuilds == {"contraction": 1, "time_step": 1, "start": 2}

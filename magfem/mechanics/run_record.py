@@ -26,6 +26,9 @@ class SimulationResult:
         log: step-control events, one line each.
         timings: wall time split (s) on rank 0: mesh_and_field, compile,
             residual, jacobian, linear_solve, total.
+        effort: Newton iterations and Jacobians assembled in this process's
+            run (a resumed run counts from its checkpoint); with a kept
+            Jacobian, ``rebuilt_<reason>`` per reason of ``REBUILD_REASONS``.
     """
 
     history: dict[str, npt.NDArray[np.float64]]
@@ -33,6 +36,7 @@ class SimulationResult:
     paths: dict[str, Path] = field(default_factory=dict)
     log: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    effort: dict[str, int] = field(default_factory=dict)
 
 
 LOG = logging.getLogger("magfem.run")

@@ -400,7 +400,9 @@ class Simulation:
             )
         timings = self.timings()
         timings["total"] = _time.perf_counter() - t_wall
-        return SimulationResult(history, self.summary(history), {}, list(self.log), timings)
+        return SimulationResult(
+            history, self.summary(history), {}, list(self.log), timings, self.effort()
+        )
 
     def _start(self, writers: Sequence[Writer], control: RunControl) -> float:
         """The initial state (t₀ or a checkpoint's), written or restored; returns its time (s)."""
@@ -470,6 +472,14 @@ class Simulation:
         out |= history_summary(history, start=self.time_spec.start, frequency=self.frequency)
         for contact in self.problem.contacts:
             out |= contact.summary()
+        return out
+
+    def effort(self) -> dict[str, int]:
+        """Newton iterations, Jacobians assembled and, when kept, why each was rebuilt."""
+        s = self.solver.timings
+        out = {"iterations": s.jacobian_calls + s.jacobian_reuses, "jacobians": s.jacobian_calls}
+        if self.solver.reuse is not None:
+            out |= {f"rebuilt_{k}": n for k, n in self.solver.reuse.rebuilds.items()}
         return out
 
     def timings(self) -> dict[str, float]:

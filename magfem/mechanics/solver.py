@@ -41,6 +41,7 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
+from magfem.mechanics.jacobian_reuse import JacobianReuse
 from magfem.mechanics.solver_options import (
     FACTORISATIONS,
     choose_linear_solver,
@@ -59,61 +60,6 @@ __all__ = [
 ]
 
 _COUNTER = itertools.count()
-
-
-class JacobianReuse:
-    """When :class:`NewtonSolver` may keep the factorised Jacobian (modified Newton).
-
-    The Jacobian of the previous assembly, and its factorisation, serve the next
-    iterations, of this step and of the following ones, as long as
-
-    * each iteration made with it leaves ‖R‖ at or below ``contraction`` times the
-      previous iterate's (``SolverSpec.reuse_contraction``; Newton with an exact
-      Jacobian, converging, reduces it by far more),
-    * the values of the constants in ``watch`` (e.g. the time step, which scales
-      the inertia term) are those it was assembled with,
-    * the last solve converged.
-
-    Its test reads SNES's iteration number and residual norm, which are the same on
-    every rank: the decision is collective without communication. Newton's tests on
-    ‖R‖ stay the same, so the step is converged to the same tolerances.
-    """
-
-    def __init__(self, contraction: float, watch: Sequence[fem.Constant] = ()):
-        self.contraction = contraction
-        self.watch = list(watch)
-        self.valid = False
-        self._values: tuple[float, ...] = ()
-        self._previous = math.inf
-        self.kept_this_solve = 0
-        self.assembled_this_solve = 0
-
-    def _current(self) -> tuple[float, ...]:
-        return tuple(float(np.sum(c.value)) for c in self.watch)
-
-    def start(self) -> None:
-        """A new solve begins (its first iteration has no contraction yet)."""
-        self._previous = math.inf
-        self.kept_this_solve = 0
-        self.assembled_this_solve = 0
-
-    def keep(self, snes: PETSc.SNES) -> bool:
-        """Whether this iteration may use the kept Jacobian (called before assembling it)."""
-        norm = float(snes.getFunctionNorm())
-        previous, self._previous = self._previous, norm
-        keep = (
-            self.valid
-            and self._current() == self._values
-            and not norm > self.contraction * previous
-        )
-        self.kept_this_solve += keep
-        return keep
-
-    def assembled(self) -> None:
-        """A Jacobian was assembled: it is the one kept from now on."""
-        self.valid = True
-        self._values = self._current()
-        self.assembled_this_solve += 1
 
 
 @dataclass

@@ -1,0 +1,89 @@
+"""When Newton may keep its factorised Jacobian (modified Newton), and why it did not."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from dolfinx import fem
+from petsc4py import PETSc
+
+__all__ = ["REBUILD_REASONS", "JacobianReuse"]
+
+REBUILD_REASONS = ("contraction", "time_step", "start")
+"""Why a Jacobian was assembled instead of kept (:attr:`JacobianReuse.rebuilds`)."""
+
+
+SAME_VALUE = 1e-9
+"""Relative change of a watched constant below which the kept Jacobian still holds it: the
+steps that land on a switch or the end differ from the nominal step by round-off."""
+
+
+class JacobianReuse:
+    """When :class:`NewtonSolver` may keep the factorised Jacobian (modified Newton).
+
+    The Jacobian of the previous assembly, and its factorisation, serve the next
+    iterations, of this step and of the following ones, as long as
+
+    * each iteration made with it leaves ‖R‖ at or below ``contraction`` times the
+      previous iterate's (``SolverSpec.reuse_contraction``; Newton with an exact
+      Jacobian, converging, reduces it by far more),
+    * the values of the constants in ``watch`` (e.g. the time step, which scales
+      the inertia term) are those it was assembled with (to :data:`SAME_VALUE`),
+    * the last solve converged.
+
+    Its test reads SNES's iteration number and residual norm, which are the same on
+    every rank: the decision is collective without communication. Newton's tests on
+    ‖R‖ stay the same, so the step is converged to the same tolerances.
+
+    ``rebuilds`` counts why a Jacobian was assembled, over the run: ``contraction``
+    (the last iteration reduced ‖R‖ too little, or raised it), ``time_step`` (a
+    watched constant changed), ``start`` (nothing valid to keep: the first
+    iteration of the run, or after a failed solve).
+    """
+
+    def __init__(self, contraction: float, watch: Sequence[fem.Constant] = ()):
+        self.contraction = contraction
+        self.watch = list(watch)
+        self.valid = False
+        self._values: tuple[float, ...] = ()
+        self._previous = math.inf
+        self.kept_this_solve = 0
+        self.assembled_this_solve = 0
+        self.rebuilds = dict.fromkeys(REBUILD_REASONS, 0)
+
+    def _current(self) -> tuple[float, ...]:
+        return tuple(float(np.sum(c.value)) for c in self.watch)
+
+    def _unchanged(self) -> bool:
+        pairs = zip(self._current(), self._values, strict=True)
+        return all(math.isclose(a, b, rel_tol=SAME_VALUE) for a, b in pairs)
+
+    def start(self) -> None:
+        """A new solve begins (its first iteration has no contraction yet)."""
+        self._previous = math.inf
+        self.kept_this_solve = 0
+        self.assembled_this_solve = 0
+
+    def keep(self, snes: PETSc.SNES) -> bool:
+        """Whether this iteration may use the kept Jacobian (called before assembling it)."""
+        norm = float(snes.getFunctionNorm())
+        previous, self._previous = self._previous, norm
+        if not self.valid:
+            reason = "start"
+        elif not self._unchanged():
+            reason = "time_step"
+        elif norm > self.contraction * previous:
+            reason = "contraction"
+        else:
+            self.kept_this_solve += 1
+            return True
+        self.rebuilds[reason] += 1
+        return False
+
+    def assembled(self) -> None:
+        """A Jacobian was assembled: it is the one kept from now on."""
+        self.valid = True
+        self._values = self._current()
+        self.assembled_this_solve += 1
