@@ -9,6 +9,16 @@ the CPU time per factorisation and the Jacobian's size and nonzeros.
 Serial, from the repository root (~1 min):
 
     .venv/bin/python -m benchmarks.direct_solvers
+
+``orderings``: the default case as its file stands (the P3 shell), its
+Jacobian after 10 steps, factorised and solved by MUMPS with each
+fill-reducing ordering (``mat_mumps_icntl_7``; magfem sets
+:data:`~magfem.mechanics.solver_options.MUMPS_ORDERING`) and, on one rank,
+by PETSc's LU: the wall time per numeric factorisation and per solve with
+that factorisation (the two costs of a Newton iteration with a new and
+with a kept Jacobian), on as many ranks as it is started on::
+
+    .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.direct_solvers orderings
 """
 
 from __future__ import annotations
@@ -17,6 +27,7 @@ from __future__ import annotations
 import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
 
 # isort: on
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -98,7 +109,78 @@ def factorisation_time(A: PETSc.Mat, solver: str) -> float:
     return elapsed
 
 
+ORDERINGS = [("automatic", 7), ("METIS", 5), ("SCOTCH", 3), ("AMD", 0), ("AMF", 2), ("PORD", 4)]
+ORDERINGS += [("QAMD", 6)]
+"""MUMPS's sequential orderings (ICNTL(7)); 7 lets MUMPS choose."""
+
+
+def factor_and_solve(A: PETSc.Mat, b: PETSc.Vec, options: dict[str, Any]) -> tuple[float, float]:
+    """Wall seconds per numeric factorisation and per solve of ``A x = b`` (collective)."""
+    comm = A.comm.tompi4py()
+    ksp = PETSc.KSP().create(A.comm)
+    prefix = f"direct_{id(ksp)}_"
+    ksp.setOptionsPrefix(prefix)
+    db = PETSc.Options()
+    for key, value in options.items():
+        db[prefix + key] = value
+    ksp.setFromOptions()
+    ksp.setOperators(A)
+    x = A.createVecRight()
+    ksp.solve(b, x)  # symbolic factorisation
+    times = []
+    for repeats, refactor in ((REPEATS, True), (10 * REPEATS, False)):
+        comm.barrier()
+        start = time.perf_counter()
+        for k in range(repeats):
+            if refactor:
+                A.scale(2.0 if k % 2 else 0.5)  # a changed matrix: factorised again
+                ksp.setOperators(A)
+                ksp.getPC().setUp()
+            else:
+                ksp.solve(b, x)
+        comm.barrier()
+        times.append((time.perf_counter() - start) / repeats)
+    for key in options:
+        db.delValue(prefix + key)
+    ksp.destroy()
+    return times[0], times[1]
+
+
+def orderings() -> None:
+    """The default case's Jacobian by MUMPS's orderings (and PETSc's LU on one rank)."""
+    comm = MPI.COMM_WORLD
+    sim = build_simulation(load_case(TRAPEZOID, [*QUIET, "output.animation=false"]), comm)
+    sim.initialise()
+    t = sim.time_spec.start
+    for _ in range(10):
+        t, _, _ = sim.step(t)
+    A, b = sim.solver.problem.A, sim.solver.problem.b
+    nonzeros = int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])  # type: ignore[arg-type]
+    report = Report(
+        f"default case's Jacobian: {A.getSize()[0]} unknowns, {nonzeros} nonzeros, "
+        f"{comm.size} rank(s)",
+        "| solver | ordering (ICNTL(7)) | factorisation (ms) | solve (ms) |",
+        "|---|---|---|---|",
+    )
+    lu = {"ksp_type": "preonly", "pc_type": "lu"}
+    runs = [("MUMPS", f"{name} ({k})", {"mat_mumps_icntl_7": k}) for name, k in ORDERINGS]
+    if comm.size == 1:
+        petsc = {"pc_factor_mat_solver_type": "petsc", "pc_factor_zeropivot": 0.0}
+        runs.append(
+            ("PETSc LU", "nested dissection", petsc | {"pc_factor_mat_ordering_type": "nd"})
+        )
+    for solver, ordering, options in runs:
+        if solver == "MUMPS":
+            options = {"pc_factor_mat_solver_type": "mumps"} | options
+        factor, solve = factor_and_solve(A, b, lu | options)
+        report.row(f"| {solver} | {ordering} | {factor * 1e3:.2f} | {solve * 1e3:.3f} |")
+    report.print()
+
+
 def main() -> None:
+    if sys.argv[1:] == ["orderings"]:
+        orderings()
+        return
     report = Report(
         "| Jacobian | unknowns | nonzeros | PETSc LU (ms) | MUMPS (ms) |",
         "|---|---|---|---|---|",

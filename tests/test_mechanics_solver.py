@@ -11,6 +11,7 @@ import magfem  # noqa: F401  (MPI before dolfinx)
 from magfem.mechanics.solver import JacobianReuse
 from magfem.mechanics.solver_options import (
     KRYLOV_DEFAULTS,
+    MUMPS_ORDERING,
     PETSC_LU_NONZEROS,
     check_petsc_options,
     choose_linear_solver,
@@ -48,17 +49,8 @@ def test_a_preconditioner_other_than_lu_gets_krylov_defaults_and_no_lu_options()
     assert newton_options(SolverSpec())["ksp_type"] == "preonly"
 
 
-def _rod_run(
-    linear_solver: str,
-    petsc_options: dict | None = None,
-    fixed_step: float = 0.0,
-    **solver: object,
-):
-    """The rod of benchmarks/pyelastica_comparison.py (0.5 mm P2, 3 ms of the 2 mT drive);
-    ``fixed_step`` > 0: that step throughout, else adaptive from 0.25 ms; ``solver``: more
-    ``[solver]`` keys. Returns (linear solver, factorisation, history, solver timings)."""
-    steps = {"step": fixed_step, "adaptive": False} if fixed_step else {"step": 0.25e-3}
-    case = vc.cantilever_case(
+def _rod_case(linear_solver: str, petsc_options: dict | None, steps: dict, **solver: object):
+    return vc.cantilever_case(
         "rod",
         0.5e-3,
         vc.NARROW_WIDTH,
@@ -69,7 +61,51 @@ def _rod_run(
         time={"end": 3e-3, "rho_inf": 0.5, **steps},
         solver={"linear_solver": linear_solver, "petsc_options": petsc_options or {}, **solver},
     )
-    sim = build_simulation(case, MPI.COMM_WORLD)
+
+
+@pytest.mark.parametrize(
+    ("linear_solver", "petsc_options", "ordering"),
+    [
+        ("mumps", {}, MUMPS_ORDERING),
+        ("mumps", {"mat_mumps_icntl_7": 0}, 0),  # the case's own ordering wins
+        ("auto", {}, None),  # PETSc's LU on one rank: no MUMPS option left unused
+    ],
+)
+def test_mumps_factorises_with_scotch_unless_the_case_orders(
+    linear_solver, petsc_options, ordering
+):
+    """The ordering MUMPS factorised with, read back from MUMPS after a step (its automatic
+    choice is 7; SCOTCH is 3). On one rank ``auto`` takes PETSc's LU for the rod, and the
+    MUMPS default must then leave the options database (PETSc reports unused options)."""
+    from petsc4py import PETSc
+
+    sim = build_simulation(
+        _rod_case(linear_solver, petsc_options, {"step": 0.25e-3}), MPI.COMM_WORLD
+    )
+    sim.initialise()
+    sim.step(sim.time_spec.start)
+    pc = sim.solver.snes.getKSP().getPC()
+    if ordering is None and MPI.COMM_WORLD.size > 1:
+        ordering = MUMPS_ORDERING  # auto is MUMPS on several ranks
+    if ordering is None:
+        assert pc.getFactorSolverType() == "petsc"
+        assert not PETSc.Options().hasName(sim.solver.prefix + "mat_mumps_icntl_7")
+    else:
+        assert pc.getFactorSolverType() == "mumps"
+        assert pc.getFactorMatrix().getMumpsIcntl(7) == ordering
+
+
+def _rod_run(
+    linear_solver: str,
+    petsc_options: dict | None = None,
+    fixed_step: float = 0.0,
+    **solver: object,
+):
+    """The rod of benchmarks/pyelastica_comparison.py (0.5 mm P2, 3 ms of the 2 mT drive);
+    ``fixed_step`` > 0: that step throughout, else adaptive from 0.25 ms; ``solver``: more
+    ``[solver]`` keys. Returns (linear solver, factorisation, history, solver timings)."""
+    steps = {"step": fixed_step, "adaptive": False} if fixed_step else {"step": 0.25e-3}
+    sim = build_simulation(_rod_case(linear_solver, petsc_options, steps, **solver), MPI.COMM_WORLD)
     pc = sim.solver.snes.getKSP().getPC()
     factor = pc.getFactorSolverType() if pc.getType() == "lu" else None
     result = sim.run(progress=False)

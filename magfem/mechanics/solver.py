@@ -210,6 +210,10 @@ class NewtonSolver:
         # its ordering (nested dissection, PETSc LU's own default; MUMPS orders
         # externally) and its zero pivot
         pc.setFactorSolverType(chosen)
+        db = PETSc.Options()
+        for key in factor_options("mumps"):  # MUMPS's own defaults: unused now, left out
+            if key.startswith("mat_mumps_") and key not in user:
+                db.delValue(self.prefix + key)
         if "pc_factor_mat_ordering_type" not in user:
             pc.setFactorOrdering("nd")
         if "pc_factor_zeropivot" not in user:
