@@ -95,6 +95,15 @@ def test_mumps_factorises_with_scotch_unless_the_case_orders(
         assert pc.getFactorMatrix().getMumpsIcntl(7) == ordering
 
 
+def test_mumps_chooses_its_own_ordering_above_the_size(monkeypatch):
+    """Above ``MUMPS_ORDERING_NONZEROS`` (here made 0) MUMPS keeps its automatic choice (7)."""
+    monkeypatch.setattr("magfem.mechanics.solver.MUMPS_ORDERING_NONZEROS", 0)
+    sim = build_simulation(_rod_case("mumps", {}, {"step": 0.25e-3}), MPI.COMM_WORLD)
+    sim.initialise()
+    sim.step(sim.time_spec.start)
+    assert sim.solver.snes.getKSP().getPC().getFactorMatrix().getMumpsIcntl(7) == 7
+
+
 def _rod_run(
     linear_solver: str,
     petsc_options: dict | None = None,

@@ -44,6 +44,8 @@ from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
 from magfem.mechanics.jacobian_reuse import JacobianReuse
 from magfem.mechanics.solver_options import (
     FACTORISATIONS,
+    MUMPS_ORDERING,
+    MUMPS_ORDERING_NONZEROS,
     choose_linear_solver,
     factor_options,
     newton_options,
@@ -192,7 +194,9 @@ class NewtonSolver:
     def _choose_linear_solver(self) -> str:
         """Set the LU's solver by the Jacobian's size (collective); returns its name.
 
-        ``pc_factor_*`` options in ``spec.petsc_options`` win over the choice.
+        ``pc_factor_*`` options in ``spec.petsc_options`` win over the choice. MUMPS
+        orders Jacobians of up to ``MUMPS_ORDERING_NONZEROS`` nonzeros by
+        ``MUMPS_ORDERING`` unless the case sets ``mat_mumps_icntl_7``.
         """
         A = self.problem.A
         nonzeros = int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_allocated"])  # type: ignore[arg-type]
@@ -201,8 +205,13 @@ class NewtonSolver:
         user = self.spec.petsc_options
         if pc.getType() not in FACTORISATIONS:
             return str(pc.getType())
+        solver = str(user.get("pc_factor_mat_solver_type", chosen))
+        small = nonzeros <= MUMPS_ORDERING_NONZEROS
+        if solver == "mumps" and small and "mat_mumps_icntl_7" not in user:
+            # read when MUMPS factorises, at the first solve
+            PETSc.Options().setValue(self.prefix + "mat_mumps_icntl_7", MUMPS_ORDERING)
         if "pc_factor_mat_solver_type" in user:
-            return str(user["pc_factor_mat_solver_type"])
+            return solver
         if chosen == newton_options(self.spec)["pc_factor_mat_solver_type"]:
             return chosen
         # PETSc LU instead of the MUMPS that newton_options set for ``auto``: the
@@ -210,10 +219,6 @@ class NewtonSolver:
         # its ordering (nested dissection, PETSc LU's own default; MUMPS orders
         # externally) and its zero pivot
         pc.setFactorSolverType(chosen)
-        db = PETSc.Options()
-        for key in factor_options("mumps"):  # MUMPS's own defaults: unused now, left out
-            if key.startswith("mat_mumps_") and key not in user:
-                db.delValue(self.prefix + key)
         if "pc_factor_mat_ordering_type" not in user:
             pc.setFactorOrdering("nd")
         if "pc_factor_zeropivot" not in user:

@@ -31,6 +31,7 @@ __all__ = [
     "FACTORISATIONS",
     "KRYLOV_DEFAULTS",
     "MUMPS_ORDERING",
+    "MUMPS_ORDERING_NONZEROS",
     "PETSC_LU_NONZEROS",
     "check_petsc_options",
     "choose_linear_solver",
@@ -47,11 +48,16 @@ PETSc's LU on a rod's 33 k nonzeros, 1.7x on a shell's 65 k, even at 174 k,
 MUMPS 1.3x faster on the default solid's 211 k, 2x on 380 k)."""
 
 MUMPS_ORDERING = 3
-"""MUMPS's fill-reducing ordering (``mat_mumps_icntl_7``): SCOTCH. On the default case's
-3395-unknown shell Jacobian on 2 ranks MUMPS's automatic choice factorised in 12.2 ms,
-SCOTCH in 7.9 (METIS 8.4), and the whole run took 103 instead of 131 s; on one rank and on
-the failure triangles' 21 k and 74 k unknowns on 2 ranks the orderings are within 5 %
+"""MUMPS's fill-reducing ordering (``mat_mumps_icntl_7``) for Jacobians of at most
+:data:`MUMPS_ORDERING_NONZEROS` nonzeros: SCOTCH. On the default case's 3395-unknown shell
+Jacobian on 2 ranks MUMPS's automatic choice factorised in 12.2 ms, SCOTCH in 7.9, and the
+whole run took 103 instead of 131 s; on one rank the orderings are within 5 %
 (``benchmarks.direct_solvers orderings``, docs/verification.md §8)."""
+
+MUMPS_ORDERING_NONZEROS = 1_000_000
+"""Above this many nonzeros MUMPS chooses its ordering: on the failure triangle's 1.6 M
+nonzeros (21 k unknowns) its choice was 5 % faster than SCOTCH on 2 ranks, and on 293 k
+unknowns 1.37 × faster on 8 ranks (docs/verification.md §8)."""
 
 FACTORISATIONS = ("lu", "cholesky")
 """Preconditioners (``pc_type``) that are direct factorisations."""
@@ -87,14 +93,11 @@ def factor_options(linear_solver: str) -> dict[str, Any]:
     PETSc's own LU does not pivot and calls a pivot zero below an absolute
     1e-12 (``pc_factor_zeropivot``): the rotary inertia of a rod's or shell's
     rotations puts ~1e-18 on the diagonal of the initial acceleration's mass
-    matrix, so only an exact zero counts as one here. MUMPS orders by
-    :data:`MUMPS_ORDERING`.
+    matrix, so only an exact zero counts as one here.
     """
     opts: dict[str, Any] = {"pc_factor_mat_solver_type": linear_solver}
     if linear_solver == "petsc":
         opts["pc_factor_zeropivot"] = 0.0
-    if linear_solver == "mumps":
-        opts["mat_mumps_icntl_7"] = MUMPS_ORDERING
     return opts
 
 
