@@ -109,8 +109,15 @@ def factorisation_time(A: PETSc.Mat, solver: str) -> float:
     return elapsed
 
 
-ORDERINGS = [("automatic", 7), ("METIS", 5), ("SCOTCH", 3), ("AMD", 0), ("AMF", 2), ("PORD", 4)]
-ORDERINGS += [("QAMD", 6)]
+ORDERINGS = [
+    ("automatic", 7),
+    ("METIS", 5),
+    ("SCOTCH", 3),
+    ("AMD", 0),
+    ("AMF", 2),
+    ("PORD", 4),
+    ("QAMD", 6),
+]
 """MUMPS's sequential orderings (ICNTL(7)); 7 lets MUMPS choose."""
 
 

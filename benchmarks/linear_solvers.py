@@ -94,10 +94,11 @@ SOLVERS: list[tuple[str, dict[str, Any], bool]] = [
 ]
 """(name, PETSc options, runs on several ranks)."""
 
-KRYLOV = {
-    "bjacobi": GMRES | {"pc_type": "bjacobi", "pc_bjacobi_local_blocks": 4} | LU_BLOCKS,
-    "asm-lu": GMRES | {"pc_type": "asm", "pc_asm_local_blocks": 4, "pc_asm_overlap": 1} | LU_BLOCKS,
-    "gamg": GMRES | {"pc_type": "gamg"},
+_OPTIONS = {name: options for name, options, _ in SOLVERS}
+KRYLOV = {  # the blocks per rank that _solve sets as a total
+    "bjacobi": _OPTIONS["GMRES + block Jacobi LU, 4 per rank"] | {"pc_bjacobi_local_blocks": 4},
+    "asm-lu": _OPTIONS["GMRES + ASM LU, 4 blocks per rank, overlap 1"] | {"pc_asm_local_blocks": 4},
+    "gamg": _OPTIONS["GMRES + GAMG"],
 }
 """Krylov solvers that ``scaling --krylov NAME`` runs whole steps with instead of ``auto``."""
 

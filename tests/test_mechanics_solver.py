@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import magfem  # noqa: F401  (MPI before dolfinx)
 from magfem.mechanics.solver import JacobianReuse
@@ -68,17 +69,15 @@ def _rod_case(linear_solver: str, petsc_options: dict | None, steps: dict, **sol
     [
         ("mumps", {}, MUMPS_ORDERING),
         ("mumps", {"mat_mumps_icntl_7": 0}, 0),  # the case's own ordering wins
-        ("auto", {}, None),  # PETSc's LU on one rank: no MUMPS option left unused
+        ("auto", {}, None),  # PETSc's LU on one rank: no MUMPS ordering set
     ],
 )
 def test_mumps_factorises_with_scotch_unless_the_case_orders(
     linear_solver, petsc_options, ordering
 ):
     """The ordering MUMPS factorised with, read back from MUMPS after a step (its automatic
-    choice is 7; SCOTCH is 3). On one rank ``auto`` takes PETSc's LU for the rod, and the
-    MUMPS default must then leave the options database (PETSc reports unused options)."""
-    from petsc4py import PETSc
-
+    choice is 7; SCOTCH is 3). On one rank ``auto`` takes PETSc's LU for the rod, and no
+    MUMPS option may then reach the options database (PETSc would report it unused)."""
     sim = build_simulation(
         _rod_case(linear_solver, petsc_options, {"step": 0.25e-3}), MPI.COMM_WORLD
     )

@@ -208,8 +208,8 @@ class NewtonSolver:
         solver = str(user.get("pc_factor_mat_solver_type", chosen))
         small = nonzeros <= MUMPS_ORDERING_NONZEROS
         if solver == "mumps" and small and "mat_mumps_icntl_7" not in user:
-            # read when MUMPS factorises, at the first solve
-            PETSc.Options().setValue(self.prefix + "mat_mumps_icntl_7", MUMPS_ORDERING)
+            pc.setFactorSetUpSolverType()  # the factor matrix, before its first factorisation
+            pc.getFactorMatrix().setMumpsIcntl(7, MUMPS_ORDERING)
         if "pc_factor_mat_solver_type" in user:
             return solver
         if chosen == newton_options(self.spec)["pc_factor_mat_solver_type"]:
