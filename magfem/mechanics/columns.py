@@ -26,7 +26,7 @@ UNITS: tuple[tuple[str, str], ...] = (
     (r"angle_.+", "rad"),
     (r"B[xyz]", "T"),
     (r"energy_density", "J/m^3"),
-    (r"energy_.+", "J"),
+    (r"energy_.+|self_contact_absorbed", "J"),
     (r"strain|bending_strain|tip_normal_.+|spread_.+", "1"),
     (r"active_length_.+|self_contact_penetration|self_contact_[xyz]", "m"),
     (r"curvature_.+", "1/m"),

@@ -373,6 +373,11 @@ class ContactSpec:
     self_contact_exclusion: float = quantity(
         2.0, "", ge=0.0, doc="points closer than this (in thicknesses) at rest never touch"
     )
+    self_contact_inelastic: bool = False
+    """Impacts between the groups are perfectly inelastic in the normal direction, as on the
+    ground: after each step, points that have just met lose their relative normal velocity
+    (the bow tie's clap, a fin striking the body). The energy lost is in the history
+    (``self_contact_absorbed``)."""
     self_contact_within: bool = True
     """Each group also touches itself (an arm curling past 180°, a membrane folded over):
     two of its points touch only when farther apart at rest than the exclusion and than

@@ -3,8 +3,10 @@
 Law: :mod:`.law`; search and pairing: :mod:`.search`; coupled Newton terms:
 :mod:`.assembly`. History columns: ``self_contact_force`` (N; N/m × depth
 for strips) in total and per pair of groups, the largest penetration and
-the pressure-weighted centroid of the touching points; touch/release events
-go to the log.
+the pressure-weighted centroid of the touching points, and with
+``self_contact_inelastic`` the kinetic energy its impacts lost,
+``self_contact_absorbed`` (:mod:`.absorber`); touch/release events go to
+the log.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from mpi4py import MPI
 
 from magfem.config import CaseError
 from magfem.mechanics.contacts.base import Contact
+from magfem.mechanics.contacts.self_contact.absorber import PairAbsorber
 from magfem.mechanics.contacts.self_contact.assembly import CoupledTerms
 from magfem.mechanics.contacts.self_contact.law import TOUCH, create_self_contact_law
 from magfem.mechanics.contacts.self_contact.search import SurfacePairing
@@ -78,6 +81,17 @@ class SelfContact(Contact):
         self._force_form = fem.form(
             ufl.inner(p.pressure(X + p.u_geom) * p.nbar, phi) * p.measure, jit_options=JIT_WAIT
         )
+        self.absorber: PairAbsorber | None = None
+        if spec.self_contact_inelastic and integ.dynamic:
+            rates = model.accepted()[1]
+            self.absorber = PairAbsorber(
+                p,
+                model.kinetic_energy(rates),
+                rates[0],
+                model.displacement_bcs,
+                depth=model.depth,
+            )
+        self._searched = False  # the pairing is at the accepted state (after the absorber)
         self._active: dict[tuple[int, int], bool] = {}
         self.first_touch: dict[tuple[int, int], float] = {}
         self.max_force = 0.0
@@ -104,8 +118,16 @@ class SelfContact(Contact):
         """The coupled Jacobian terms at the iterate ``x`` (see :class:`CoupledTerms`)."""
         self.terms.add_jacobian(x, A)
 
+    def after_step(self) -> None:
+        """With ``self_contact_inelastic``: absorb the new impacts (:mod:`.absorber`)."""
+        if self.absorber is not None:
+            integ = self.integrator
+            self.absorber.apply(integ.u0, integ.v0, integ.a0)
+            self._searched = True
+
     def before_solve(self) -> None:
         """Pair the surfaces at the stage displacement (1 − αf) u + αf u_n (collective)."""
+        self._searched = False
         integ = self.integrator
         u = integ.u.x.array
         if integ.dynamic and integ.params is not None:
@@ -159,7 +181,8 @@ class SelfContact(Contact):
             "self_contact_y",
             "self_contact_z",
         ]
-        return cols + [f"self_contact_force_{self.pair_name(p)}" for p in self.pairs]
+        cols += [f"self_contact_force_{self.pair_name(p)}" for p in self.pairs]
+        return cols + (["self_contact_absorbed"] if self.absorber is not None else [])
 
     def observe(self, t: float) -> dict[str, float]:
         """Contact observables at the accepted state u_n (collective).
@@ -173,7 +196,8 @@ class SelfContact(Contact):
         Records touch/release events.
         """
         p = self.pairing
-        p.search(self.model.integrator.u0.x.array)
+        if not self._searched:
+            p.search(self.model.integrator.u0.x.array)
         width = self.model.depth
         gdim = p.gdim
         f = fem.assemble_vector(self._force_form)
@@ -237,6 +261,8 @@ class SelfContact(Contact):
         row["self_contact_force"] = total
         row["self_contact_penetration"] = penetration
         row["self_contact_x"], row["self_contact_y"], row["self_contact_z"] = map(float, c3)
+        if self.absorber is not None:
+            row["self_contact_absorbed"] = self.absorber.absorbed
         self.max_force = max(self.max_force, total)
         self.max_penetration = max(self.max_penetration, penetration)
         return row
@@ -253,6 +279,7 @@ class SelfContact(Contact):
             "max_force": self.max_force,
             "max_penetration": self.max_penetration,
             "events": list(self._events),
+            "absorber": self.absorber.state() if self.absorber is not None else None,
         }
 
     def load_state(self, state: Mapping[str, Any]) -> None:
@@ -262,6 +289,8 @@ class SelfContact(Contact):
         self.max_force = float(state["max_force"])
         self.max_penetration = float(state["max_penetration"])
         self._events = list(state["events"])
+        if self.absorber is not None and state.get("absorber") is not None:
+            self.absorber.load_state(state["absorber"])
 
     def summary(self) -> dict[str, float]:
         """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)."""
@@ -271,6 +300,9 @@ class SelfContact(Contact):
         }
         out["max_self_contact_force"] = self.max_force
         out["max_self_contact_penetration"] = self.max_penetration
+        if self.absorber is not None:
+            out["self_contact_absorbed"] = self.absorber.absorbed
+            out["self_contact_impacts"] = float(self.absorber.impacts)
         return out
 
 
