@@ -441,9 +441,9 @@ class SurfacePairing(ContactSurfaces):
 
     def _drop_deep_nodes(
         self,
-        position: npt.NDArray[np.float64],
-        here: npt.NDArray[np.float64],
-        nbar: npt.NDArray[np.float64],
+        position: npt.NDArray[np.floating[Any]],
+        here: npt.NDArray[np.floating[Any]],
+        nbar: npt.NDArray[np.floating[Any]],
     ) -> None:
         """Unpair the nodes whose own gap to their master node is below −band (m).
 
