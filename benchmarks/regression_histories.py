@@ -44,9 +44,17 @@ RUNS: dict[str, tuple[str, list[str]]] = {
         pinned_trapezoid("time.end=8ms", "mesh.model=surface", "mesh.size=1mm"),
     ),
     "two_arm_strip": ("two_arm_20hz.toml", ["time.end=15ms", "mesh.size=0.5mm"]),
-    "bow_tie_self_contact": (
+    "bow_tie_self_contact": (  # the solid this history was saved with, penalty contact alone
         "bow_tie.toml",
-        ["time.end=20ms", "mesh.size=1mm", "field.sources.0.waveform.frequency=30Hz"],
+        [
+            "time.end=20ms",
+            "mesh.size=1mm",
+            "field.sources.0.waveform.frequency=30Hz",
+            "mesh.model=solid",
+            "solver.degree=2",
+            "time.step=0.25ms",
+            "contact.self_contact_inelastic=false",
+        ],
     ),
     "flower_radial": ("flower.toml", ["time.end=6ms", "mesh.size=2mm"]),
     "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm"]),

@@ -120,7 +120,8 @@ def history_summary(
     (nan when the run ends before the window does); ``max_strain``,
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
-    force; nan if none) and ``max_self_contact_force`` (N); and
+    force; nan if none), ``max_self_contact_force`` (N) and, with inelastic
+    self-contact, ``self_contact_absorbed`` (J, the energy its impacts lost); and
     :func:`summarize_midline`, for a free body :func:`summarize_body`, for a
     cargo :func:`summarize_cargo` and, in a fluid, :func:`summarize_swimming`.
     Columns that are absent give no entry; blank samples (nan) are skipped.
@@ -151,6 +152,8 @@ def history_summary(
         touching = np.flatnonzero(force > 0.0)
         out["first_self_touch"] = float(t[touching[0]]) if touching.size else math.nan
         out["max_self_contact_force"] = float(np.nanmax(force))
+    if "self_contact_absorbed" in history:
+        out["self_contact_absorbed"] = float(history["self_contact_absorbed"][-1])
     if "energy_density" in history:
         out["max_energy_density"] = float(np.nanmax(history["energy_density"]))
         if frequency:

@@ -293,15 +293,15 @@ class SelfContact(Contact):
             self.absorber.load_state(state["absorber"])
 
     def summary(self) -> dict[str, float]:
-        """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)."""
+        """First touch time per pair (s, NaN if never), largest force (N) and penetration (m)
+        and, with the absorber, the number of impacts it absorbed."""
         out = {
             f"first_touch_{self.pair_name(p)}": self.first_touch.get(p, float("nan"))
             for p in self.pairs
         }
         out["max_self_contact_force"] = self.max_force
         out["max_self_contact_penetration"] = self.max_penetration
-        if self.absorber is not None:
-            out["self_contact_absorbed"] = self.absorber.absorbed
+        if self.absorber is not None:  # its energy is the history's (history_summary)
             out["self_contact_impacts"] = float(self.absorber.impacts)
         return out
 
