@@ -198,8 +198,7 @@ class SelfContact(Contact):
         p = self.pairing
         if not self._searched:
             p.search(self.model.integrator.u0.x.array)
-        width = self.model.depth
-        gdim = p.gdim
+        width, gdim = self.model.depth, p.gdim
         f = fem.assemble_vector(self._force_form)
         f.scatter_reverse(la.InsertMode.add)
         nodes = p.nodes[p.nodes < p.size_local]
@@ -220,9 +219,7 @@ class SelfContact(Contact):
         np.add.at(moment, (li, pj), mag[touching, None] * x[touching])
         np.maximum.at(deepest, (li, pj), pen[touching])
         resultant, weight, moment = (_sum(a, p.comm) for a in (resultant, weight, moment))
-        deepest_all = np.zeros_like(deepest)
-        p.comm.Allreduce(deepest, deepest_all, op=MPI.MAX)
-        deepest = deepest_all
+        p.comm.Allreduce(MPI.IN_PLACE, deepest, op=MPI.MAX)
         row: dict[str, float] = {}
         total, total_w, total_m = 0.0, 0.0, np.zeros(gdim)
         for pair in self.pairs:

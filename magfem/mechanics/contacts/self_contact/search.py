@@ -447,26 +447,15 @@ class SurfacePairing(ContactSurfaces):
     ) -> None:
         """Unpair the nodes more than a cell inside their master node (m).
 
-        The vertices' band (:meth:`_match`) bounds the gap at the vertices
-        only; a higher-order node between them takes its master node among
-        those around the vertex's anchor, and where the master is folded
-        tightly (an arm folded over at its root) that node's gap may lie
-        millimetres inside, where no surface of the membrane is: the bow tie
-        at 20 Hz saw 1 N with no vertex inside the master. The limit is the
-        master group's cell (corner to corner), as a cell outside is the
-        vertices' upper limit: with the band instead (one thickness on the
-        shell), the nodes of an arm's tip striking the other arm edge-on
-        that crossed its mid-surface lost their push back, and the 30 Hz
-        bow tie failed at 22.2 ms instead of 33.4 ms.
+        The band bounds the gap at the vertices only; a higher-order node takes
+        its master near the vertex's anchor and, on a tightly folded master,
+        may lie millimetres inside (docs/verification.md, "Inelastic
+        self-contact"). A cell is the vertices' outer limit too.
         """
         paired = np.flatnonzero(self.vpartner >= 0)
-        if paired.size == 0:
-            return
-        unit = np.linalg.norm(nbar[paired], axis=1)
+        unit = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
         lifted = position[self.vpartner[paired]] + self._lift[paired]
-        gap = np.einsum("ij,ij->i", here[paired] - lifted, nbar[paired]) / np.where(
-            unit > 0, unit, 1.0
-        )
+        gap = np.einsum("ij,ij->i", here[paired] - lifted, unit)
         limit = np.maximum(self.law.band, self._diameter[self._gvlabel[self.vpartner[paired]]])
         self.vpartner[paired[gap < -limit]] = -1
 
