@@ -187,7 +187,7 @@ SWIMMERS: dict[str, list[str]] = {
     # grows as the step squared (1.2e-6 J at 2 ms, 7e-8 J at 0.5 ms, against a bound of 1.4e-7
     # J): the integrator's first step, not the fluid (the same in air, or without added mass)
     "rect_water": _tiny("0.5mm", "10ms", "0.25ms"),
-    "manta": _tiny("2mm", "20ms", "5ms"),
+    "manta": _tiny("2mm", "20ms", "5ms", "time.max_step=5ms"),
     "propeller": _tiny("1mm", "3ms", "0.25ms"),
 }
 """Free robots in water ([fluid]) -> ``--set`` arguments of their tiny run (~2-4 s each, JIT
