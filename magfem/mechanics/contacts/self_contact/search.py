@@ -405,7 +405,9 @@ class SurfacePairing(ContactSurfaces):
         belongs to, not the opposite face of the membrane a thickness away):
         on matching meshes a slave edge node faces the master's edge node, so
         x̄ is the master's own surface and the reaction is distributed like the
-        slave's traction.
+        slave's traction. A node more than a cell inside its master is left
+        without one (millimetres inside, on a tightly folded master;
+        docs/verification.md, "Inelastic self-contact").
         """
         gdim = self.gdim
         disp = self.u_geom.x.array.reshape(-1, gdim)
@@ -436,28 +438,14 @@ class SurfacePairing(ContactSurfaces):
                 c = c[(np.abs(dots) if self.two_sided else dots) > bound]
                 if c.size:
                     self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
-        self._drop_deep_nodes(position, here, nbar)
-        self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
-
-    def _drop_deep_nodes(
-        self,
-        position: npt.NDArray[np.floating[Any]],
-        here: npt.NDArray[np.floating[Any]],
-        nbar: npt.NDArray[np.floating[Any]],
-    ) -> None:
-        """Unpair the nodes more than a cell inside their master node (m).
-
-        The band bounds the gap at the vertices only; a higher-order node takes
-        its master near the vertex's anchor and, on a tightly folded master,
-        may lie millimetres inside (docs/verification.md, "Inelastic
-        self-contact"). A cell is the vertices' outer limit too.
-        """
+        # a node more than a cell inside its master lies where no face of the membrane is
         paired = np.flatnonzero(self.vpartner >= 0)
-        unit = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
+        n_hat = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
         lifted = position[self.vpartner[paired]] + self._lift[paired]
-        gap = np.einsum("ij,ij->i", here[paired] - lifted, unit)
+        gap = np.einsum("ij,ij->i", here[paired] - lifted, n_hat)
         limit = np.maximum(self.law.band, self._diameter[self._gvlabel[self.vpartner[paired]]])
         self.vpartner[paired[gap < -limit]] = -1
+        self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
 
     def _node_anchors(self) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
         """Per local V node: the master group of its facets (the largest paired with; -1:
