@@ -20,7 +20,10 @@ through the solids' two-pass penalty (k_c = κ_s μ / H):
   order in Δt, and they separate (identical plates: an elastic impact).
 * Inelastic (``self_contact_inelastic``): plates flying at v and −v/3 go on
   together at v/3 (momentum), and the kinetic energy the impact loses,
-  ½ (m/2)(4v/3)², is what the absorber reports.
+  ½ (m/2)(4v/3)², is what the absorber reports; stopped after the impact and
+  resumed, the run goes on as if never stopped.
+* A node pushed more than a cell through the other plate, its vertices clear,
+  is left without a master (no force).
 """
 
 from __future__ import annotations

@@ -114,7 +114,7 @@ class PairAbsorber:
         for bc in bcs:
             dofs, owned = bc.dof_indices()
             inverse.reshape(-1)[dofs[:owned]] = 0.0  # supported: infinite mass
-        self._inverse_mass = np.concatenate(p.comm.allgather(inverse[p._vown])).reshape(-1, gdim)
+        self._inverse_mass = p.gather_nodes(inverse).reshape(-1, gdim)
         """Per gathered contact node and component: 1/m (1/kg; 0 where supported)."""
         sizes = p.comm.allgather(int(p._vown.size))
         self._first = int(sum(sizes[: p.comm.rank]))  # this rank's first gathered node
@@ -173,8 +173,7 @@ class PairAbsorber:
     def _gathered(self, f: fem.Function) -> npt.NDArray[np.float64]:
         """The values of ``f`` at every contact node, in the gathered order (collective)."""
         p = self.pairing
-        mine = f.x.array.reshape(-1, p.gdim)[p._vown]
-        return np.concatenate(p.comm.allgather(mine)).reshape(-1, p.gdim)
+        return p.gather_nodes(f.x.array.reshape(-1, p.gdim)).reshape(-1, p.gdim)
 
     def _pairs(
         self, owned_displacement: npt.NDArray[np.float64]

@@ -34,9 +34,9 @@ Search (closest point, nearest-node form).
     vertices. The gap to the master's tangent plane equals the gap to the
     surface for a flat master and is off by O(d² κ) for a master of
     curvature κ at lateral offset d ≲ one facet. A node more than a cell
-    inside its master node is left without one.
-    Nodes without a master have x̄ at their own position (no gap there).
-    With ``within`` a group is also searched against itself: candidates closer at rest than its own
+    inside its master node is left without one. Nodes without a master have
+    x̄ at their own position (no gap there). With ``within`` a group is also
+    searched against itself: candidates closer at rest than its own
     exclusion are skipped before the nearest CANDIDATES are examined
     (:mod:`.law`).
 
@@ -188,7 +188,7 @@ class SurfacePairing(ContactSurfaces):
         numbering.x.scatter_forward()  # exact in float64 below 2**53 dofs
         self.row = np.rint(numbering.x.array[::bs]).astype(np.int64)
         """Per local V node: global row of its first component in the Newton system."""
-        self._gvrow = np.concatenate(self.comm.allgather(self.row[self._vown]))
+        self._gvrow = self.gather_nodes(self.row)
 
     # --- the law at a point (UFL) ------------------------------------------------------------
 
@@ -479,7 +479,7 @@ class SurfacePairing(ContactSurfaces):
         """
         gdim = self.gdim
         disp = displacement.reshape(-1, gdim)
-        position = self._gvref + np.concatenate(self.comm.allgather(disp[self._vown]))
+        position = self._gvref + self.gather_nodes(disp)
         k = self.vpartner
         paired = k >= 0
         xbar = self.vreference + disp

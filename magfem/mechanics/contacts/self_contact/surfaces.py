@@ -143,8 +143,13 @@ class ContactSurfaces:
         """Per V node: index of its master node in the gathered contact nodes (-1: none)."""
         # contact nodes owned here, in the order of every gather (search and coupling)
         self._vown = self.vnodes[self.vnodes < vmap.size_local]
-        self._gvref = np.concatenate(self.comm.allgather(self.vreference[self._vown]))
-        self._gvlabel = np.concatenate(self.comm.allgather(self.vlabel[self._vown]))
+        self._gvref = self.gather_nodes(self.vreference)
+        self._gvlabel = self.gather_nodes(self.vlabel)
+
+    def gather_nodes(self, values: npt.NDArray[Any]) -> npt.NDArray[Any]:
+        """Per-node ``values`` (first axis: local V nodes) at the owned contact nodes of every
+        rank, in the order every gather of the search and coupling uses (collective)."""
+        return np.concatenate(self.comm.allgather(values[self._vown]))
 
     def _neighbourhoods(self) -> None:
         """Per group: its largest contact entity (m), a k-d tree of its gathered displacement
