@@ -22,8 +22,10 @@ through the solids' two-pass penalty (k_c = κ_s μ / H):
   together at v/3 (momentum), and the kinetic energy the impact loses,
   ½ (m/2)(4v/3)², is what the absorber reports; stopped after the impact and
   resumed, the run goes on as if never stopped.
-* A node pushed more than a cell through the other plate, its vertices clear,
+* A node pushed deeper than the band through the other plate, its vertices clear,
   is left without a master (no force).
+* Paired plates closing fast bound the next step to their gap plus half the band over
+  their relative speed.
 """
 
 from __future__ import annotations
@@ -279,14 +281,15 @@ def test_one_pressed_node_carries_its_own_gap_on_its_own_area(comm):
     assert comm.allreduce(float(np.abs(rest).max(initial=0.0)), op=MPI.MAX) < 1e-12 * expected
 
 
-def test_a_node_a_cell_inside_its_master_is_not_pulled(comm):
+def test_a_node_deeper_than_the_band_is_not_pulled(comm):
     """The band bounds the gap at the vertices, where the pairs are searched; a
     higher-order node between them takes a master node around the vertex's anchor, and may
     lie far deeper than any face (a tightly folded master: the bow tie at 20 Hz saw 1 N
-    with no vertex inside). One cell-interior node of the upper plate pushed 5 thicknesses
-    (1.4 cells) through the lower one, every vertex half a thickness clear: that node is
-    unpaired and no node carries a force (paired, as before this limit, the residual
-    carried 0.079 N)."""
+    with no vertex inside). One cell-interior node of the upper plate pushed 2.5
+    thicknesses (0.7 of a cell, corner to corner) through the lower one, every vertex half
+    a thickness clear: the node is deeper than the band (one thickness on the shell), so
+    it is unpaired, as a vertex would be, and no node carries a force (with a cell as the
+    limit it stayed paired and the residual carried 0.079 N)."""
     case = _case(
         {},
         {"gravity": [0, 0, 0], "clamped": ["lower"]},
@@ -302,7 +305,7 @@ def test_a_node_a_cell_inside_its_master_is_not_pulled(comm):
     node = np.flatnonzero(np.linalg.norm(X - target, axis=1) < 1e-9 * a)
     disp = np.zeros_like(X)
     disp[X[:, 2] > 0.5 * H, 2] = 0.5 * H
-    disp[node, 2] = -5 * H
+    disp[node, 2] = -2.5 * H
     u.x.array[:] = disp.ravel()
     sim.integrator.u0.x.array[:] = u.x.array
     contact = sim.problem.contacts[0]
@@ -497,6 +500,24 @@ def test_plates_thrown_from_afar_with_long_steps_do_not_pass_through(comm):
     lower = np.concatenate(comm.allgather(z[owned & (X[:, 2] < middle)]))
     upper = np.concatenate(comm.allgather(z[owned & (X[:, 2] > middle)]))
     assert upper.min() - lower.max() > 0.5 * H
+
+
+def test_paired_plates_closing_fast_bound_the_step_to_half_the_band(comm):
+    """Two free plates a fraction of a cell apart (paired) close at the relative speed
+    4v/3 (v and −v/3): self-contact bounds the next step to (g + b/2)/(4v/3), g the gap
+    between the faces and b = H the shell's band, so that no step carries a pair more than
+    half the band inside, where the search would drop it (the 30 Hz bow tie's arms went a
+    whole thickness through each other within a step). Receding, they bound nothing (the
+    unpaired approach's bound counts only vertices two cells from the other group at rest,
+    none on stacked plates)."""
+    gap, v = 2.05e-5, 0.1
+    sim = _flying(comm, gap, v, 1e-3, 1e-3, upper=-v / 3)
+    contact = sim.problem.contacts[0]
+    contact.before_solve()  # pair at u_n = 0
+    expected = (gap + 0.5 * H) / (4 * v / 3)
+    assert contact.step_limit() == pytest.approx(expected, rel=1e-9)
+    sim.integrator.v0.x.array[:] *= -1.0
+    assert contact.step_limit() == np.inf
 
 
 def test_rod_refuses_self_contact(comm):

@@ -137,27 +137,62 @@ class SelfContact(Contact):
             self.pairing.search(u.copy())
 
     def step_limit(self) -> float | None:
-        """The longest next step (s) at which an unpaired approach stays outside the pairs.
+        """The longest next step (s) at which the search keeps up with the surfaces' motion.
 
-        The search pairs surfaces less than a cell a apart (the smallest of
-        the groups' cells) at the start of a step; within it the penalty acts
-        implicitly on those pairs only. Two surfaces s apart (nearest vertices
-        of two groups, less the offset) whose points move at most at v close
-        by at most 2 v Δt, so Δt ≤ max(s − a/2, a/2)/(2 v) keeps surfaces
-        farther than a cell from meeting unpaired within the step, and paired
-        points within half a cell of their pair. Pairs of a group with itself
-        are not bounded. None when nothing moves (quasi-static runs too).
+        Unpaired surfaces. The search pairs surfaces less than a cell a apart
+        (the smallest of the groups' cells) at the start of a step; within it
+        the penalty acts implicitly on those pairs only. Two surfaces s apart
+        (nearest vertices of two groups, less the offset) whose points move at
+        most at v close by at most 2 v Δt, so Δt ≤ max(s − a/2, a/2)/(2 v)
+        keeps surfaces farther than a cell from meeting unpaired within the
+        step. Pairs of a group with itself are not bounded by this.
+
+        Paired points (of any two groups, or of one group with itself) that
+        approach at the relative normal speed −w > 0 (w = (v_s − v_m)·n̄) with
+        gap g close by about −w Δt: Δt ≤ (max(g, 0) + b/2)/(−w) lets no
+        step carry a pair more than half the band b inside
+        (:meth:`approach_limit`), where the search would drop it. None when
+        nothing moves (quasi-static runs too).
         """
         integ = self.integrator
         if not integ.dynamic:
             return None
         p = self.pairing
-        v = integ.v0.x.array.reshape(-1, p.gdim)[p.vnodes]
-        speed = p.comm.allreduce(float(np.linalg.norm(v, axis=1).max(initial=0.0)), op=MPI.MAX)
-        if speed == 0.0 or len(p.groups) < 2:
+        v = integ.v0.x.array.reshape(-1, p.gdim)
+        speed = p.comm.allreduce(
+            float(np.linalg.norm(v[p.vnodes], axis=1).max(initial=0.0)), op=MPI.MAX
+        )
+        if speed == 0.0:
             return None
-        a = p.cell_size
-        return max(p.clearance(integ.u0.x.array) - 0.5 * a, 0.5 * a) / (2.0 * speed)
+        limit = self.approach_limit(integ.u0.x.array, v)
+        if len(p.groups) >= 2:
+            a = p.cell_size
+            unpaired = max(p.clearance(integ.u0.x.array) - 0.5 * a, 0.5 * a) / (2.0 * speed)
+            limit = unpaired if limit is None else min(limit, unpaired)
+        return limit
+
+    def approach_limit(self, u: npt.NDArray[Any], v: npt.NDArray[Any]) -> float | None:
+        """The longest step (s) in which no paired node closes on its master by more than its
+        gap plus half the band, at displacement ``u`` and velocity ``v`` (local arrays of V;
+        None: no pair approaches; collective)."""
+        p, gdim = self.pairing, self.pairing.gdim
+        own = p._vown
+        k = p.vpartner[own]
+        nbar = p._nbar_v.x.array.reshape(-1, gdim)[own]
+        length = np.linalg.norm(nbar, axis=1)
+        paired = (k >= 0) & (length > 0)
+        k = k[paired]
+        n = nbar[paired] / length[paired, None]
+        position = p._gvref + p.gather_nodes(u.reshape(-1, gdim))
+        velocity = p.gather_nodes(v.reshape(-1, gdim))
+        x = p.vreference[own][paired] + u.reshape(-1, gdim)[own][paired]
+        gap = np.einsum("ij,ij->i", x - position[k] - p._lift[own][paired], n)
+        w = np.einsum("ij,ij->i", v.reshape(-1, gdim)[own][paired] - velocity[k], n)
+        closing = w < 0.0
+        room = np.maximum(gap[closing], 0.0) + 0.5 * p.law.band
+        local = float(np.min(room / -w[closing], initial=np.inf))
+        limit = p.comm.allreduce(local, op=MPI.MIN)
+        return None if limit == np.inf else limit
 
     # --- observation ------------------------------------------------------------------------
 

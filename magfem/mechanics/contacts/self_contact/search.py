@@ -33,12 +33,12 @@ Search (closest point, nearest-node form).
     curled master, often far from the facet found). n̄ is interpolated linearly from the
     vertices. The gap to the master's tangent plane equals the gap to the
     surface for a flat master and is off by O(d² κ) for a master of
-    curvature κ at lateral offset d ≲ one facet. A node more than a cell
-    inside its master node is left without one. Nodes without a master have
-    x̄ at their own position (no gap there). With ``within`` a group is also
-    searched against itself: candidates closer at rest than its own
-    exclusion are skipped before the nearest CANDIDATES are examined
-    (:mod:`.law`).
+    curvature κ at lateral offset d ≲ one facet. A node deeper inside its
+    master node than the band is left without one, as a vertex would be.
+    Nodes without a master have x̄ at their own position (no gap there).
+    With ``within`` a group is also searched against itself: candidates
+    closer at rest than its own exclusion are skipped before the nearest
+    CANDIDATES are examined (:mod:`.law`).
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
@@ -405,9 +405,10 @@ class SurfacePairing(ContactSurfaces):
         belongs to, not the opposite face of the membrane a thickness away):
         on matching meshes a slave edge node faces the master's edge node, so
         x̄ is the master's own surface and the reaction is distributed like the
-        slave's traction. A node more than a cell inside its master is left
-        without one (millimetres inside, on a tightly folded master;
-        docs/verification.md, "Inelastic self-contact").
+        slave's traction. A node deeper inside its master than the band is
+        left without one, as a vertex is (on a tightly folded master a node
+        may find one millimetres inside; docs/verification.md, "Inelastic
+        self-contact").
         """
         gdim = self.gdim
         disp = self.u_geom.x.array.reshape(-1, gdim)
@@ -438,13 +439,12 @@ class SurfacePairing(ContactSurfaces):
                 c = c[(np.abs(dots) if self.two_sided else dots) > bound]
                 if c.size:
                     self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
-        # a node more than a cell inside its master lies where no face of the membrane is
+        # a node deeper than the band has gone through its master, or faces the wrong part
         paired = np.flatnonzero(self.vpartner >= 0)
         n_hat = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
         lifted = position[self.vpartner[paired]] + self._lift[paired]
         gap = np.einsum("ij,ij->i", here[paired] - lifted, n_hat)
-        limit = np.maximum(self.law.band, self._diameter[self._gvlabel[self.vpartner[paired]]])
-        self.vpartner[paired[gap < -limit]] = -1
+        self.vpartner[paired[gap < -self.law.band]] = -1
         self.engaged = bool(self.comm.allreduce(bool(np.any(self.vpartner >= 0)), op=MPI.LOR))
 
     def _node_anchors(self) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
