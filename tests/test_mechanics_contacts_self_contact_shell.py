@@ -24,6 +24,7 @@ through the solids' two-pass penalty (k_c = κ_s μ / H):
   resumed, the run goes on as if never stopped.
 * A node pushed deeper than the band through the other plate, its vertices clear,
   is left without a master (no force).
+* A plate standing on its free edge on the other is pushed out edge-on.
 * Paired plates closing fast bound the next step to their gap plus half the band over
   their relative speed.
 """
@@ -279,6 +280,59 @@ def test_one_pressed_node_carries_its_own_gap_on_its_own_area(comm):
     assert sorted(f[2] for f in pushed) == pytest.approx([-expected, expected], rel=1e-9)
     rest = np.delete(force, sorted(at), axis=0)
     assert comm.allreduce(float(np.abs(rest).max(initial=0.0)), op=MPI.MAX) < 1e-12 * expected
+
+
+def test_a_plate_standing_on_its_edge_is_pushed_out_edge_on(comm):
+    """A shell touches with its free edge too (a tip striking another arm edge-on): the
+    upper plate turned upright, its bottom edge 2 onsets into the lower plate's face. Its
+    normal is parallel to the lower plate, so no face faces the other; the edge's nodes
+    are paired all the same (a free edge is half a cylinder of radius H/2, a thickness
+    from the mid-surface it strikes, like a face). The lower plate pushes the upright one
+    up by ½ k_c r(δ) Σ ∫φ_i dA over the bottom edge's nodes and takes the reaction (rel
+    1e-9): one pass of the two-pass law (the lower plate's nodes face no face of the
+    upright one). Without the edge rule nothing pairs and the edge goes through."""
+    case = _case(
+        {},
+        {"gravity": [0, 0, 0], "clamped": ["lower"]},
+        {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
+    )
+    sim = build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
+    u = sim.model.unknowns[0]
+    V = u.function_space
+    X = V.tabulate_dof_coordinates()
+    a = L / CELLS
+    upper = X[:, 2] > 0.5 * H
+    delta = 2 * ONSET * H  # on the ramp's linear branch: r = δ − δ0/2
+    # (x, y, H) -> (x, L/2, H − δ + y): upright over the lower plate's mid-line y = L/2
+    disp = np.zeros_like(X)
+    disp[upper, 1] = 0.5 * L - X[upper, 1]
+    disp[upper, 2] = X[upper, 1] - delta
+    u.x.array[:] = disp.ravel()
+    sim.integrator.u0.x.array[:] = u.x.array
+    contact = sim.problem.contacts[0]
+    contact.before_solve()
+    x = sim.solver.problem.x.copy()
+    fem_petsc.assign(sim.model.unknowns, x)
+    b = vc.contact_residual(contact, x)
+    owned = V.dofmap.index_map.size_local
+    force = b.array[: 3 * owned].reshape(-1, 3)
+    mine = np.arange(len(X)) < owned
+    # the residual holds minus the contact forces
+    lift, load = (
+        -comm.allreduce(float(force[mine[:owned] & side[:owned], 2].sum()), op=MPI.SUM)
+        for side in (upper, ~upper)
+    )
+    # Σ ∫φ_i dA over the bottom edge's nodes, by the default (Gauss) rule
+    scalar = fem.functionspace(V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree))
+    area = fem.assemble_vector(fem.form(ufl.TestFunction(scalar) * ufl.dx))
+    area.scatter_reverse(la.InsertMode.add)
+    n_owned = scalar.dofmap.index_map.size_local
+    xs = scalar.tabulate_dof_coordinates()[:n_owned]
+    edge = (xs[:, 2] > 0.5 * H) & (xs[:, 1] < 1e-9 * a)
+    weight = comm.allreduce(float(area.array[:n_owned][edge].sum()), op=MPI.SUM)
+    expected = 0.5 * KAPPA * MU / H * (delta - ONSET * H / 2) * weight  # N
+    assert lift == pytest.approx(expected, rel=1e-9)
+    assert load == pytest.approx(-expected, rel=1e-9)
 
 
 def test_a_node_deeper_than_the_band_is_not_pulled(comm):

@@ -276,12 +276,13 @@ class SelfContact(Contact):
             active = bool(max(deepest[i, j], deepest[j, i]) > TOUCH * self.pairing.law.onset)
             was = self._active.get(pair, False)
             if active and not was:
-                where = m / w
                 self.first_touch.setdefault(pair, t)
                 other = "itself" if i == j else self.pairing.groups[j]
+                # a vertex inside whose node carries no force (unpaired deeper than the band)
+                where = f" at {_mm(m / w)} mm" if w > 0 else ""
                 self._events.append(
-                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {other} at "
-                    f"{_mm(where)} mm, force {fp:.3g} N"
+                    f"t = {t:.6g} s: {self.pairing.groups[i]} touches {other}{where}, "
+                    f"force {fp:.3g} N"
                 )
             elif was and not active:
                 other = "itself" if i == j else self.pairing.groups[j]

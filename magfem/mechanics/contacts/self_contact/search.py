@@ -8,9 +8,10 @@ Search (closest point, nearest-node form).
     normal most opposes the slave's gives n̄ (facet normals from the current
     vertices, oriented by the area-weighted nodal normals
     n_m ∝ ∫ J F⁻ᵀ N φ_m dA). Candidates must face each other
-    (n_s·n_m < −1/2), the slave's foot on the facet's plane must lie inside
-    the facet (barycentric coordinates ≥ −0.1; a point beyond the master's
-    edge does not touch it) and less than half a thickness inside
+    (n_s·n_m < −1/2; a shell's free edge need not, :mod:`.shell`), the
+    slave's foot on the facet's plane must lie inside the facet
+    (barycentric coordinates ≥ −0.1; a point beyond the master's edge does
+    not touch it) and less than half a thickness inside
     (a point that went through is not pulled back the wrong way, and where
     two arms meet, the bottom face of one does not see the top face of the
     other through the thickness: with a band of one thickness the 1 mm bow
@@ -259,7 +260,9 @@ class SurfacePairing(ContactSurfaces):
                 slaves = np.flatnonzero((label == j) == own)
                 if slaves.size == 0 or not (glabel == j).any() or (own and not self.law.within):
                     continue
-                dist, normal, g, m = self._match(x[slaves], n[slaves], ref[slaves], master, j, own)
+                dist, normal, g, m = self._match(
+                    x[slaves], n[slaves], ref[slaves], self.rim[nodes[slaves]], master, j, own
+                )
                 better = dist < best_dist[slaves]
                 s = slaves[better]
                 best_dist[s] = dist[better]
@@ -318,6 +321,7 @@ class SurfacePairing(ContactSurfaces):
         x: npt.NDArray[Any],
         n: npt.NDArray[Any],
         ref: npt.NDArray[Any],
+        rim: npt.NDArray[np.bool_],
         master: tuple[npt.NDArray[Any], ...],
         j: int,
         own: bool,
@@ -326,6 +330,7 @@ class SurfacePairing(ContactSurfaces):
 
         Args:
             x, n, ref: (slaves, gdim) current positions, unit normals, reference positions.
+            rim: (slaves,) the slave touches edge-on too: it need not face the master.
             master: the gathered vertices (positions, normals of the facets around,
                 groups, reference positions, corners of the facets around).
             j: the master group.
@@ -355,7 +360,7 @@ class SurfacePairing(ContactSurfaces):
         foot = x[:, None, None, :] - (g + self.offset)[..., None] * around
         ok = (
             far[..., None]
-            & (dots < FACING)
+            & ((dots < FACING) | (rim[:, None, None] & np.isfinite(dots)))
             & (g > -law.band)
             & self._far_in_reference(ref, mref[idx], in_j[idx], j, limit)
             & inside(foot, mc[idx], INSIDE)

@@ -31,6 +31,16 @@ at the next search: the penalty is a tolerance of a fraction of h, not a
 barrier. A group folded onto itself (``self_contact_within``) touches itself the same
 way, its own neighbourhood excluded (:mod:`.law`).
 
+Free edges. A vertex on the membrane's free edge (an edge of one cell: an
+arm's tip, a fin's rim) touches a face edge-on as well as face on: it need
+not face the master (the facing test is left out for it). The edge is half
+a cylinder of radius h/2 around the mid-surface's boundary, so it touches a
+mid-surface h/2 + h/2 = h away, the same offset as a face. An edge-on touch
+is one pass of the two-pass law (the face's nodes face no face of the edge),
+so it is half as stiff as a face-on one. Without it an arm's tip striking
+another arm edge-on went through it and crumpled at its corner (the 30 Hz
+bow tie).
+
 Nodal rule (node-to-surface): the contact integrals are evaluated at the
 displacement's nodes, with weights ∫φ_i dA (:func:`nodal_rule`: Gauss–Lobatto
 for the quadrilaterals' GLL-warped P2 and P3 nodes, all positive). Each node's
@@ -51,7 +61,8 @@ import basix
 import numpy as np
 import numpy.typing as npt
 import ufl
-from dolfinx import fem
+from dolfinx import fem, la
+from dolfinx import mesh as dmesh
 
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.self_contact.law import SelfContactLaw
@@ -141,6 +152,17 @@ class ShellPairing(SurfacePairing):
     ) -> None:
         super()._surface_vertices(facets, facet_label)
         self._cell_label = facet_label
+        # the rim: vertices on the membrane's free edges (edges of one cell), on every rank
+        topology = self.domain.topology
+        tdim = topology.dim
+        topology.create_connectivity(tdim - 1, tdim)
+        edges = dmesh.exterior_facet_indices(topology)
+        flag = fem.Function(self.Vc)
+        dofs = fem.locate_dofs_topological(self.Vc, tdim - 1, edges)
+        flag.x.array.reshape(-1, self.gdim)[dofs, 0] = 1.0
+        flag.x.scatter_reverse(la.InsertMode.add)
+        flag.x.scatter_forward()
+        self.rim = flag.x.array.reshape(-1, self.gdim)[:, 0] > 0.0
 
     def _far_in_reference(
         self,

@@ -120,6 +120,8 @@ class ContactSurfaces:
         self.entity_label = facet_label  # group index per contact entity
         self.partner = np.full(n_nodes, -1, dtype=np.int32)
         self.gap = np.zeros(n_nodes)
+        self.rim = np.zeros(n_nodes, dtype=bool)
+        """Per contact vertex: it touches edge-on too (a shell's free edge: :mod:`.shell`)."""
         self._normal_c = fem.Function(Vc)  # unit outward nodal normals at the contact vertices
 
     def _surface_nodes(
