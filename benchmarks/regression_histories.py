@@ -54,6 +54,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
             "solver.degree=2",
             "time.step=0.25ms",
             "contact.self_contact_inelastic=false",
+            "solver.line_search=basic",
         ],
     ),
     "flower_radial": ("flower.toml", ["time.end=6ms", "mesh.size=2mm"]),
