@@ -220,6 +220,54 @@ def test_shell_coupled_linearisation_matches_finite_differences(comm):
     assert b.norm() > 0.0
 
 
+def _lower_clamped(comm: MPI.Comm) -> tuple[Simulation, fem.Function]:
+    """The plates touching (mid-surfaces H apart), the lower one clamped, and the
+    displacement, for tests that set a displacement and evaluate the contact at it."""
+    case = _case(
+        {},
+        {"gravity": [0, 0, 0], "clamped": ["lower"]},
+        {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
+    )
+    sim = build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
+    return sim, sim.model.unknowns[0]
+
+
+def _contact_at(sim: Simulation, displacement: np.ndarray) -> tuple[Any, np.ndarray]:
+    """The contact paired at ``displacement`` ((nodes, 3) m, u and u_n alike) and its
+    residual per owned displacement node ((owned, 3) N: minus the contact forces)."""
+    u = sim.model.unknowns[0]
+    u.x.array[:] = displacement.ravel()
+    sim.integrator.u0.x.array[:] = u.x.array  # the stage displacement is u
+    contact = sim.problem.contacts[0]
+    contact.before_solve()
+    x = sim.solver.problem.x.copy()
+    fem_petsc.assign(sim.model.unknowns, x)
+    b = vc.contact_residual(contact, x)
+    owned = u.function_space.dofmap.index_map.size_local
+    return contact, b.array[: 3 * owned].reshape(-1, 3)
+
+
+def _nodal_area(V: fem.FunctionSpace, select: Any) -> float:
+    """Σ ∫φ_i dA over the nodes at which ``select`` ((n, 3) positions -> mask) holds, by the
+    default (Gauss) rule: an area independent of the contact's nodal rule (collective)."""
+    scalar = fem.functionspace(V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree))
+    area = fem.assemble_vector(fem.form(ufl.TestFunction(scalar) * ufl.dx))
+    area.scatter_reverse(la.InsertMode.add)
+    owned = scalar.dofmap.index_map.size_local
+    xs = scalar.tabulate_dof_coordinates()[:owned]
+    return V.mesh.comm.allreduce(float(area.array[:owned][select(xs)].sum()), op=MPI.SUM)
+
+
+def _interior_node(comm: MPI.Comm, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cell-interior node of the upper plate nearest (1.3a, 1.3a) at rest, the same on
+    every rank, and its local indices in the dof coordinates ``X`` (none, or one)."""
+    a = L / CELLS
+    off_edges = np.all(np.abs(X[:, :2] / a - np.rint(X[:, :2] / a)) > 1e-6, axis=1)
+    pool = np.concatenate(comm.allgather(X[off_edges & (X[:, 2] > 0.5 * H)]))
+    target = pool[np.argmin(np.linalg.norm(pool[:, :2] - 1.3 * a, axis=1))]
+    return target, np.flatnonzero(np.linalg.norm(X - target, axis=1) < 1e-9 * a)
+
+
 def test_one_pressed_node_carries_its_own_gap_on_its_own_area(comm):
     """Node-to-surface with the nodal rule: one node of the upper plate pushed 2 onsets
     into the lower one, every other node half a thickness clear of it. The contact
@@ -228,48 +276,19 @@ def test_one_pressed_node_carries_its_own_gap_on_its_own_area(comm):
     between paired nodes and nodes without a master, the gap had spurious negative
     values between them: the 0.5 mm P3 bow tie took a 0.4 N kick at 2 mm from any contact.)
     """
-    case = _case(
-        {},
-        {"gravity": [0, 0, 0], "clamped": ["lower"]},
-        {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
-    )
-    sim = build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
-    u = sim.model.unknowns[0]
+    sim, u = _lower_clamped(comm)
     V = u.function_space
     X = V.tabulate_dof_coordinates()
     a = L / CELLS
-    # the cell-interior node of the upper plate nearest (1.3a, 1.3a), the same on every rank
-    off_edges = np.all(np.abs(X[:, :2] / a - np.rint(X[:, :2] / a)) > 1e-6, axis=1)
-    pool = np.concatenate(comm.allgather(X[off_edges & (X[:, 2] > 0.5 * H)]))
-    target = pool[np.argmin(np.linalg.norm(pool[:, :2] - 1.3 * a, axis=1))]
-    node = np.flatnonzero(np.linalg.norm(X - target, axis=1) < 1e-9 * a)
+    target, node = _interior_node(comm, X)
     facing = np.flatnonzero(np.linalg.norm(X - target * [1, 1, 0], axis=1) < 1e-9 * a)
     delta = 2 * ONSET * H  # on the ramp's linear branch: r = δ − δ0/2
     disp = np.zeros_like(X)
     disp[X[:, 2] > 0.5 * H, 2] = 0.5 * H
     disp[node, 2] = -delta
-    u.x.array[:] = disp.ravel()
-    sim.integrator.u0.x.array[:] = u.x.array  # the stage displacement is u
-    contact = sim.problem.contacts[0]
-    contact.before_solve()
-    x = sim.solver.problem.x.copy()
-    fem_petsc.assign(sim.model.unknowns, x)
-    b = vc.contact_residual(contact, x)
+    _, force = _contact_at(sim, disp)
     owned = V.dofmap.index_map.size_local
-    force = b.array[: 3 * owned].reshape(-1, 3)
-    # ∫φ_i dA of the node's basis function, by the default (Gauss) rule: an independent area
-    scalar = fem.functionspace(V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree))
-    area = fem.assemble_vector(fem.form(ufl.TestFunction(scalar) * ufl.dx))
-    area.scatter_reverse(la.InsertMode.add)
-    xs = scalar.tabulate_dof_coordinates()
-    weight = comm.allreduce(
-        float(
-            area.array[: scalar.dofmap.index_map.size_local][
-                np.linalg.norm(xs[: scalar.dofmap.index_map.size_local] - target, axis=1) < 1e-9 * a
-            ].sum()
-        ),
-        op=MPI.SUM,
-    )
+    weight = _nodal_area(V, lambda xs: np.linalg.norm(xs - target, axis=1) < 1e-9 * a)
     expected = KAPPA * MU / H * (delta - ONSET * H / 2) * weight  # N
     at = {i for i in node if i < owned} | {i for i in facing if i < owned}
     pushed = comm.allgather([force[i] for i in sorted(at)])
@@ -291,13 +310,7 @@ def test_a_plate_standing_on_its_edge_is_pushed_out_edge_on(comm):
     up by ½ k_c r(δ) Σ ∫φ_i dA over the bottom edge's nodes and takes the reaction (rel
     1e-9): one pass of the two-pass law (the lower plate's nodes face no face of the
     upright one). Without the edge rule nothing pairs and the edge goes through."""
-    case = _case(
-        {},
-        {"gravity": [0, 0, 0], "clamped": ["lower"]},
-        {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
-    )
-    sim = build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
-    u = sim.model.unknowns[0]
+    sim, u = _lower_clamped(comm)
     V = u.function_space
     X = V.tabulate_dof_coordinates()
     a = L / CELLS
@@ -307,29 +320,12 @@ def test_a_plate_standing_on_its_edge_is_pushed_out_edge_on(comm):
     disp = np.zeros_like(X)
     disp[upper, 1] = 0.5 * L - X[upper, 1]
     disp[upper, 2] = X[upper, 1] - delta
-    u.x.array[:] = disp.ravel()
-    sim.integrator.u0.x.array[:] = u.x.array
-    contact = sim.problem.contacts[0]
-    contact.before_solve()
-    x = sim.solver.problem.x.copy()
-    fem_petsc.assign(sim.model.unknowns, x)
-    b = vc.contact_residual(contact, x)
-    owned = V.dofmap.index_map.size_local
-    force = b.array[: 3 * owned].reshape(-1, 3)
-    mine = np.arange(len(X)) < owned
-    # the residual holds minus the contact forces
-    lift, load = (
-        -comm.allreduce(float(force[mine[:owned] & side[:owned], 2].sum()), op=MPI.SUM)
-        for side in (upper, ~upper)
+    _, force = _contact_at(sim, disp)
+    owned = len(force)
+    lift, load = (  # the residual holds minus the contact forces
+        -comm.allreduce(float(force[side[:owned], 2].sum()), op=MPI.SUM) for side in (upper, ~upper)
     )
-    # Σ ∫φ_i dA over the bottom edge's nodes, by the default (Gauss) rule
-    scalar = fem.functionspace(V.mesh, ("Lagrange", V.ufl_element().embedded_superdegree))
-    area = fem.assemble_vector(fem.form(ufl.TestFunction(scalar) * ufl.dx))
-    area.scatter_reverse(la.InsertMode.add)
-    n_owned = scalar.dofmap.index_map.size_local
-    xs = scalar.tabulate_dof_coordinates()[:n_owned]
-    edge = (xs[:, 2] > 0.5 * H) & (xs[:, 1] < 1e-9 * a)
-    weight = comm.allreduce(float(area.array[:n_owned][edge].sum()), op=MPI.SUM)
+    weight = _nodal_area(V, lambda xs: (xs[:, 2] > 0.5 * H) & (xs[:, 1] < 1e-9 * a))
     expected = 0.5 * KAPPA * MU / H * (delta - ONSET * H / 2) * weight  # N
     assert lift == pytest.approx(expected, rel=1e-9)
     assert load == pytest.approx(-expected, rel=1e-9)
@@ -344,33 +340,17 @@ def test_a_node_deeper_than_the_band_is_not_pulled(comm):
     a thickness clear: the node is deeper than the band (one thickness on the shell), so
     it is unpaired, as a vertex would be, and no node carries a force (with a cell as the
     limit it stayed paired and the residual carried 0.079 N)."""
-    case = _case(
-        {},
-        {"gravity": [0, 0, 0], "clamped": ["lower"]},
-        {"end": 1e-3, "step": 1e-4, "rho_inf": 0.5, "scheme": "generalized_alpha"},
-    )
-    sim = build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
-    u = sim.model.unknowns[0]
+    sim, u = _lower_clamped(comm)
     X = u.function_space.tabulate_dof_coordinates()
-    a = L / CELLS
-    off_edges = np.all(np.abs(X[:, :2] / a - np.rint(X[:, :2] / a)) > 1e-6, axis=1)
-    pool = np.concatenate(comm.allgather(X[off_edges & (X[:, 2] > 0.5 * H)]))
-    target = pool[np.argmin(np.linalg.norm(pool[:, :2] - 1.3 * a, axis=1))]
-    node = np.flatnonzero(np.linalg.norm(X - target, axis=1) < 1e-9 * a)
+    _, node = _interior_node(comm, X)
     disp = np.zeros_like(X)
     disp[X[:, 2] > 0.5 * H, 2] = 0.5 * H
     disp[node, 2] = -2.5 * H
-    u.x.array[:] = disp.ravel()
-    sim.integrator.u0.x.array[:] = u.x.array
-    contact = sim.problem.contacts[0]
-    contact.before_solve()
+    contact, force = _contact_at(sim, disp)
     pairing = contact.pairing
     assert np.all(pairing.vpartner[node] < 0)
     assert comm.allreduce(int(np.count_nonzero(pairing.vpartner >= 0)), op=MPI.SUM) > 0
-    x = sim.solver.problem.x.copy()
-    fem_petsc.assign(sim.model.unknowns, x)
-    b = vc.contact_residual(contact, x)
-    assert comm.allreduce(float(np.abs(b.array).max(initial=0.0)), op=MPI.MAX) == 0.0
+    assert comm.allreduce(float(np.abs(force).max(initial=0.0)), op=MPI.MAX) == 0.0
 
 
 @pytest.mark.parametrize(("cells", "pairs"), [(0.8, True), (1.2, False)])
