@@ -176,18 +176,19 @@ class SelfContact(Contact):
         gap plus half the band, at displacement ``u`` and velocity ``v`` (local arrays of V;
         None: no pair approaches; collective)."""
         p, gdim = self.pairing, self.pairing.gdim
+        u, v = u.reshape(-1, gdim), v.reshape(-1, gdim)
         own = p._vown
         k = p.vpartner[own]
         nbar = p._nbar_v.x.array.reshape(-1, gdim)[own]
         length = np.linalg.norm(nbar, axis=1)
         paired = (k >= 0) & (length > 0)
-        k = k[paired]
+        k, slave = k[paired], own[paired]
         n = nbar[paired] / length[paired, None]
-        position = p._gvref + p.gather_nodes(u.reshape(-1, gdim))
-        velocity = p.gather_nodes(v.reshape(-1, gdim))
-        x = p.vreference[own][paired] + u.reshape(-1, gdim)[own][paired]
-        gap = np.einsum("ij,ij->i", x - position[k] - p._lift[own][paired], n)
-        w = np.einsum("ij,ij->i", v.reshape(-1, gdim)[own][paired] - velocity[k], n)
+        position = p._gvref + p.gather_nodes(u)
+        velocity = p.gather_nodes(v)
+        x = p.vreference[slave] + u[slave]
+        gap = np.einsum("ij,ij->i", x - position[k] - p._lift[slave], n)
+        w = np.einsum("ij,ij->i", v[slave] - velocity[k], n)
         closing = w < 0.0
         room = np.maximum(gap[closing], 0.0) + 0.5 * p.law.band
         local = float(np.min(room / -w[closing], initial=np.inf))
