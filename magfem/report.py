@@ -138,7 +138,8 @@ def build_report(
     :func:`magfem.sweep.run_sweep`); ``jobs`` runs that many points at once.
 
     With ``only``, a scene not named keeps its row and section from the existing page
-    (rebuilt from ``out`` when the page lacks it).
+    (rebuilt from ``out`` when the page lacks it), read after the runs: a page another
+    report wrote while these ran keeps that report's sections.
 
     Raises:
         CaseError: a bad study file, or an unknown scene id in ``only``.
@@ -158,9 +159,15 @@ def build_report(
         "| scene | status | runs | wall time (s) |",
         "| --- | --- | --- | --- |",
     ]
+    sweep = functools.partial(run_sweep, jobs=jobs, retry_failed=retry_failed, echo=echo)
+    ran = {  # the runs first: they may take hours, and the page may change meanwhile
+        s.ident: _records(s, out / s.ident, sweep)
+        for s in all_studies
+        if run and (not only or s.ident in only)
+    }
     body: list[str] = []
     path = docs / "scenes.md"
-    kept = _page_scenes(path) if only else {}
+    kept = _page_scenes(path) if only else {}  # read now, not before the runs
     for study in all_studies:
         if study.ident not in only and study.ident in kept:
             row, section = kept[study.ident]
@@ -168,9 +175,8 @@ def build_report(
             body += section
             continue
         sweep_dir = out / study.ident
-        if run and (not only or study.ident in only):
-            sweep = functools.partial(run_sweep, jobs=jobs, retry_failed=retry_failed, echo=echo)
-            records, reason = _records(study, sweep_dir, sweep)
+        if study.ident in ran:
+            records, reason = ran[study.ident]
         else:
             records, reason = _records(study, sweep_dir, None)
         done = [r for r in records if r.get("status") == "done"]

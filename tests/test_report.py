@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -213,6 +214,32 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     # a full report (no ``only``) rebuilds every scene from ``out``
     full = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
     assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
+
+
+def test_report_only_keeps_a_section_another_report_wrote_during_the_runs(
+    tmp_path, repo, monkeypatch
+):
+    """Two ``--only`` reports running at once: the one that finishes last keeps the
+    section the other wrote while its runs went on (the page is read after the runs)."""
+    monkeypatch.chdir(repo)
+    docs = tmp_path / "docs"
+    page = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
+    assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in page
+
+    def sweep(case, params, sweep_dir, **_):  # meanwhile another report rebuilds five-arm
+        text = (docs / "scenes.md").read_text()
+        text = text.replace(
+            "| [five-arm](#five-arm) | missing | 0/– | 0 |",
+            "| [five-arm](#five-arm) | predicted | 1/1 | 7 |",
+        ).replace("## five-arm\n", "## five-arm\n\nWritten during the runs.\n")
+        (docs / "scenes.md").write_text(text)
+        return SimpleNamespace(records=[])
+
+    monkeypatch.setattr("magfem.report.run_sweep", sweep)
+    text = build_report(tmp_path / "out", run=True, only=["two-arm-20hz"], docs=docs, echo=None)
+    text = text.read_text()
+    assert "| [five-arm](#five-arm) | predicted | 1/1 | 7 |" in text
+    assert "## five-arm\n\nWritten during the runs.\n" in text
 
 
 _PROBE = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
