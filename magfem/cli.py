@@ -198,12 +198,19 @@ def _cmd_run(args: argparse.Namespace, case: Case, comm: MPI.Comm, stop: StopSig
 
 def solver_effort(effort: Mapping[str, int], timings: Mapping[str, float]) -> str:
     """The run's Newton work in one line: iterations, Jacobians (why rebuilt), times (s)."""
-    line = f"solver    {effort['iterations']} Newton iterations, {effort['jacobians']} Jacobians"
+    gmres = f" ({effort['gmres_iterations']} GMRES)" if "gmres_iterations" in effort else ""
+    line = (
+        f"solver    {effort['iterations']} Newton iterations{gmres},"
+        f" {effort['jacobians']} Jacobians"
+    )
     if "rebuilt_start" in effort:
+        krylov = effort.get("rebuilt_krylov", 0)
         line += (
             f" (kept for {effort['iterations'] - effort['jacobians']} iterations; rebuilt after"
-            f" slow contraction {effort['rebuilt_contraction']}, a new time step"
-            f" {effort['rebuilt_time_step']}, a start or failed solve {effort['rebuilt_start']})"
+            f" slow contraction {effort['rebuilt_contraction']},"
+            + (f" slow GMRES {krylov}," if krylov else "")
+            + f" a new time step {effort['rebuilt_time_step']},"
+            f" a start or failed solve {effort['rebuilt_start']})"
         )
     return (
         line

@@ -11,7 +11,7 @@ from petsc4py import PETSc
 
 __all__ = ["REBUILD_REASONS", "JacobianReuse"]
 
-REBUILD_REASONS = ("contraction", "time_step", "start")
+REBUILD_REASONS = ("contraction", "krylov", "time_step", "start")
 """Why a Jacobian was assembled instead of kept (:attr:`JacobianReuse.rebuilds`)."""
 
 
@@ -31,20 +31,30 @@ class JacobianReuse:
       Jacobian, converging, reduces it by far more),
     * the values of the constants in ``watch`` (e.g. the time step, which scales
       the inertia term) are those it was assembled with (to :data:`SAME_VALUE`),
-    * the last solve converged.
+    * the last solve converged,
+    * with ``krylov_iterations`` (Jacobian-free Newton–Krylov, where the kept
+      Jacobian only preconditions GMRES), the last linear solve took at most that
+      many GMRES iterations.
 
-    Its test reads SNES's iteration number and residual norm, which are the same on
+    Its test reads SNES's residual norm and GMRES's iteration count, which are the same on
     every rank: the decision is collective without communication. Newton's tests on
     ‖R‖ stay the same, so the step is converged to the same tolerances.
 
     ``rebuilds`` counts why a Jacobian was assembled, over the run: ``contraction``
-    (the last iteration reduced ‖R‖ too little, or raised it), ``time_step`` (a
+    (the last iteration reduced ‖R‖ too little, or raised it), ``krylov`` (GMRES
+    needed more than ``krylov_iterations``), ``time_step`` (a
     watched constant changed), ``start`` (nothing valid to keep: the first
     iteration of the run, or after a failed solve).
     """
 
-    def __init__(self, contraction: float, watch: Sequence[fem.Constant] = ()):
+    def __init__(
+        self,
+        contraction: float,
+        watch: Sequence[fem.Constant] = (),
+        krylov_iterations: int | None = None,
+    ):
         self.contraction = contraction
+        self.krylov_iterations = krylov_iterations
         self.watch = list(watch)
         self.valid = False
         self._values: tuple[float, ...] = ()
@@ -76,6 +86,11 @@ class JacobianReuse:
             reason = "time_step"
         elif norm > self.contraction * previous:
             reason = "contraction"
+        elif (
+            self.krylov_iterations is not None
+            and snes.getKSP().getIterationNumber() > self.krylov_iterations
+        ):
+            reason = "krylov"
         else:
             self.kept_this_solve += 1
             return True

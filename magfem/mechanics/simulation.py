@@ -475,11 +475,14 @@ class Simulation:
         return out
 
     def effort(self) -> dict[str, int]:
-        """Newton iterations, Jacobians assembled and, when kept, why each was rebuilt."""
+        """Newton iterations, Jacobians assembled, when kept why each was rebuilt, and the
+        GMRES iterations of a Jacobian-free Newton."""
         s = self.solver.timings
         out = {"iterations": s.jacobian_calls + s.jacobian_reuses, "jacobians": s.jacobian_calls}
         if self.solver.reuse is not None:
             out |= {f"rebuilt_{k}": n for k, n in self.solver.reuse.rebuilds.items()}
+        if self.solver_spec.jacobian_free:
+            out["gmres_iterations"] = s.linear_iterations
         return out
 
     def timings(self) -> dict[str, float]:

@@ -26,6 +26,7 @@ tolerance max(atol, force_tolerance × F_ref).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -76,6 +77,9 @@ class SolverTimings:
     jacobian_calls: int = 0
     jacobian_reuses: int = 0
     """Newton iterations that kept the factorised Jacobian (``reuse_jacobian``)."""
+    linear_iterations: int = 0
+    """Krylov iterations of the linear solves (GMRES with ``jacobian_free``; 0 with ``preonly``,
+    the direct solve)."""
 
     @property
     def assembly(self) -> float:
@@ -181,8 +185,11 @@ class NewtonSolver:
         self.jacobian_hooks: list[Callable[[PETSc.Vec, PETSc.Mat], None]] = []
         """Called as ``hook(x, A)`` after the form Jacobian is assembled (A final):
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
+        krylov = spec.krylov_iterations if spec.jacobian_free else None
         self.reuse = (
-            JacobianReuse(spec.reuse_contraction, refresh_on) if spec.reuse_jacobian else None
+            JacobianReuse(spec.reuse_contraction, refresh_on, krylov)
+            if spec.reuse_jacobian
+            else None
         )
         """The policy that keeps the Jacobian across iterations and steps, or None."""
         self._wrap_callbacks(list(bcs), homogeneous_bcs)
@@ -290,15 +297,20 @@ class NewtonSolver:
         reuse = self.reuse
 
         def jacobian(snes_: Any, x: Any, A: Any, P: Any) -> None:
+            if A.handle != P.handle:
+                # Jacobian-free (snes_mf_operator): A is the finite-difference operator, whose
+                # assembly sets its base point to this iterate; the assembled Jacobian goes
+                # into P, the preconditioner's matrix
+                A.assemble()
             if reuse is not None and reuse.keep(snes_):
-                # A unchanged: the PC keeps its factorisation (PETSc refactors on a
+                # P unchanged: the PC keeps its factorisation (PETSc refactors on a
                 # change of the matrix's state only)
                 timings.jacobian_reuses += 1
                 return
             t0 = time.perf_counter()
-            fem_petsc.assemble_jacobian(snes_, x, A, P, u, J, None, bcs)
+            fem_petsc.assemble_jacobian(snes_, x, P, P, u, J, None, bcs)
             for hook in jacobian_hooks:
-                hook(x, A)
+                hook(x, P)
             if reuse is not None:
                 reuse.assembled()
             timings.jacobian += time.perf_counter() - t0
@@ -386,6 +398,7 @@ class NewtonSolver:
             )
         elapsed = time.perf_counter() - t0
         self.timings.linear_solve = ksp_time0 + max(elapsed - (self.timings.assembly - asm0), 0.0)
+        self.timings.linear_iterations += int(snes.getLinearSolveIterations())
         reason = int(snes.getConvergedReason())  # type: ignore[call-overload]
         norm = snes.getFunctionNorm()
         converged = reason > 0 and math.isfinite(norm)
@@ -426,7 +439,8 @@ def solve_linear(
 
     Used for the consistent initial acceleration M a₀ = −R(u₀, v₀, 0; t₀).
     """
-    solver = NewtonSolver(F, u, bcs, spec, name=name)
+    # one exact Newton step: GMRES on a finite-difference operator would only approximate it
+    solver = NewtonSolver(F, u, bcs, dataclasses.replace(spec, jacobian_free=False), name=name)
     solver.snes.setTolerances(max_it=2)
     report = solver.solve()
     solver.destroy()

@@ -25,10 +25,11 @@ from typing import Any
 from petsc4py import PETSc
 
 from magfem.config import CaseError
-from magfem.mechanics.spec import SolverSpec
+from magfem.mechanics.spec import FACTORISATIONS, SolverSpec
 
 __all__ = [
     "FACTORISATIONS",
+    "JACOBIAN_FREE_DEFAULTS",
     "KRYLOV_DEFAULTS",
     "MUMPS_ORDERING",
     "MUMPS_ORDERING_NONZEROS",
@@ -59,9 +60,6 @@ MUMPS_ORDERING_NONZEROS = 1_000_000
 nonzeros (21 k unknowns) its choice was 5 % faster than SCOTCH on 2 ranks, and on 293 k
 unknowns 1.37 × faster on 8 ranks (docs/verification.md §8)."""
 
-FACTORISATIONS = ("lu", "cholesky")
-"""Preconditioners (``pc_type``) that are direct factorisations."""
-
 KRYLOV_DEFAULTS: dict[str, Any] = {
     "ksp_type": "gmres",
     "ksp_pc_side": "right",
@@ -73,6 +71,23 @@ KRYLOV_DEFAULTS: dict[str, Any] = {
 ``petsc_options = { pc_type = "gamg" }``), each overridden by ``petsc_options``:
 GMRES preconditioned on the right, so its relative tolerance is the true
 residual's, 1e-8 of it (Newton's own tolerance is 1e-6 of the predictor's residual)."""
+
+
+JACOBIAN_FREE_DEFAULTS: dict[str, Any] = {
+    "snes_mf_operator": True,
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_rtol": 0.3,
+    "ksp_max_it": 30,
+    "ksp_gmres_restart": 30,
+}
+"""Options of ``[solver] jacobian_free`` (Jacobian-free Newton–Krylov), each overridden by
+``petsc_options``: PETSc's finite-difference operator of the residual (``snes_mf_operator``:
+the assembled Jacobian is the preconditioner's matrix only), GMRES preconditioned on the right
+by its factorisation, each Newton step solved to 0.3 of its residual (an inexact Newton step:
+the Newton iterations contract by about that much where the exact Jacobian's would do no
+better; on the default case 0.3 took fewer residuals than 0.1 or Eisenstat–Walker's choice,
+docs/verification.md §8)."""
 
 
 def choose_linear_solver(spec: SolverSpec, nonzeros: int, ranks: int) -> str:
@@ -108,7 +123,8 @@ def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[s
     None: ``spec.linear_solver``, with ``auto`` read as ``mumps``. Where
     ``spec.petsc_options`` names a preconditioner other than a factorisation
     (``pc_type``), the LU's options are left out and the Krylov method
-    defaults to :data:`KRYLOV_DEFAULTS`.
+    defaults to :data:`KRYLOV_DEFAULTS`; ``spec.jacobian_free`` adds
+    :data:`JACOBIAN_FREE_DEFAULTS`.
     """
     if linear_solver is None:
         linear_solver = "mumps" if spec.linear_solver == "auto" else spec.linear_solver
@@ -129,6 +145,8 @@ def newton_options(spec: SolverSpec, linear_solver: str | None = None) -> dict[s
         opts |= factor_options(linear_solver)
     else:
         opts |= KRYLOV_DEFAULTS
+    if spec.jacobian_free:
+        opts |= JACOBIAN_FREE_DEFAULTS
     opts.update(spec.petsc_options)
     return opts
 

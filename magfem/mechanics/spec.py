@@ -39,6 +39,7 @@ from magfem.config import (
 from magfem.units import UnitError, parse_angle, parse_quantity
 
 __all__ = [
+    "FACTORISATIONS",
     "ContactSpec",
     "EnvironmentSpec",
     "MagnetRegionSpec",
@@ -236,6 +237,10 @@ class TimeSpec:
         return self.step if self.tolerance is None else MAX_STEP_RATIO * self.step
 
 
+FACTORISATIONS = ("lu", "cholesky")
+"""Preconditioners (``petsc_options.pc_type``) that are direct factorisations."""
+
+
 @dataclass(frozen=True)
 class SolverSpec:
     """``[solver]``: Newton (PETSc SNES) and linear solver; extra PETSc options pass through.
@@ -294,6 +299,19 @@ class SolverSpec:
         doc="reuse_jacobian: rebuild the Jacobian after an iteration that left the residual "
         "norm above this fraction of the previous one",
     )
+    jacobian_free: bool = flag(
+        False,
+        doc="with reuse_jacobian: each Newton step solves with the exact Jacobian, applied "
+        "by finite differences of the residual, by GMRES preconditioned by the kept factorised "
+        "Jacobian (Jacobian-free Newton-Krylov); the kept one is rebuilt after a GMRES solve "
+        "of more than krylov_iterations iterations",
+    )
+    krylov_iterations: int = integer(
+        3,
+        ge=1,
+        doc="jacobian_free: rebuild the kept Jacobian after a linear solve that took more "
+        "GMRES iterations than this",
+    )
     degree: int = integer(2, ge=1, le=3, doc="Lagrange degree of the displacement (P2 default)")
     quadrature_degree: int | None = integer(
         None, ge=1, le=12, doc="quadrature degree (default 2 × degree)"
@@ -323,6 +341,19 @@ class SolverSpec:
         for key, value in self.petsc_options.items():
             if not isinstance(value, str | int | float | bool):
                 raise CaseError(f"petsc_options.{key}", value, "must be a string or number")
+        if self.jacobian_free and not self.reuse_jacobian:
+            raise CaseError(
+                "jacobian_free",
+                self.jacobian_free,
+                "needs reuse_jacobian = true (the kept factorised Jacobian preconditions GMRES)",
+            )
+        pc_type = self.petsc_options.get("pc_type", "lu")
+        if self.jacobian_free and pc_type not in FACTORISATIONS:
+            raise CaseError(
+                "jacobian_free",
+                self.jacobian_free,
+                f"needs a factorisation as preconditioner, not petsc_options.pc_type = {pc_type!r}",
+            )
 
 
 @dataclass(frozen=True)
