@@ -192,8 +192,8 @@ def test_jacobian_free_newton_converges_to_the_same_steps_with_fewer_factorisati
     """``jacobian_free`` (Newton–Krylov: GMRES on finite differences of the residual,
     preconditioned by the kept factorisation) on the fixed steps of full Newton, both to
     ‖R‖ <= 1e-10 of the predictor's: the same solutions, so the histories agree below 1e-7
-    of the largest angle (measured: 8.5e-9 rad of 0.95). Its Newton steps are the exact
-    Jacobian's to GMRES's 0.3, so it needs fewer factorisations than modified Newton, which
+    of the largest angle (measured: 8.3e-9 rad of 0.95). Its Newton steps are the exact
+    Jacobian's to GMRES's 0.1, so it needs fewer factorisations than modified Newton, which
     rebuilds whenever the kept Jacobian's own step contracts too little (measured on the 48
     steps: 4 against 15, and 100 with full Newton). A preconditioner rebuilt on every
     iteration would give as many Jacobians as iterations; an operator not assembled at each

@@ -307,7 +307,7 @@ class SolverSpec:
         "of more than krylov_iterations iterations",
     )
     krylov_iterations: int = integer(
-        3,
+        4,
         ge=1,
         doc="jacobian_free: rebuild the kept Jacobian after a linear solve that took more "
         "GMRES iterations than this",
