@@ -252,8 +252,10 @@ def _records(
 
 
 def _status(study: Study, records: list[dict[str, Any]], reason: str) -> tuple[str, str]:
-    """The scene's status (predicted, partial, missing, under-resolved) and the reason its
-    prediction is missing ("" when it is not)."""
+    """The scene's status (predicted, partial, missing, under-resolved, no uncertainty) and the
+    reason its prediction is missing ("" when it is not). Finished runs are a prediction only
+    with their numerical uncertainty: two resolutions compared (``compare``) or a stated
+    ``uncertainty``."""
     done = [r for r in records if r.get("status") == "done"]
     unfinished = [r for r in records if r.get("status") == "missing"]
     if unfinished and not reason:
@@ -268,6 +270,12 @@ def _status(study: Study, records: list[dict[str, Any]], reason: str) -> tuple[s
     if done and study.unresolved:
         status = "under-resolved"
         reason = "; ".join(r for r in (reason, f"under-resolved: {study.unresolved}") if r)
+    elif status == "predicted" and not (study.compare or study.uncertainty):
+        status = "no uncertainty"
+        reason = (
+            "the runs finished, but the study states no numerical uncertainty of their numbers "
+            "(no second resolution compared, no `uncertainty`)"
+        )
     return status, reason
 
 
@@ -347,6 +355,8 @@ def _setup_lines(study: Study) -> list[str]:
         out.append(f"- {' '.join(notes['missing'])}")
     if study.notes:
         out.append(f"- {study.notes}")
+    if study.uncertainty:
+        out.append(f"- uncertainty: {study.uncertainty}")
     if notes["assumed"]:
         out.append("- assumed: " + "; ".join(notes["assumed"]))
     return [*out, ""]

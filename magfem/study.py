@@ -17,7 +17,7 @@ docs/scenes.md). Example, ``cases/studies/two-arm-20hz.toml``::
 
 The keys, their defaults and what they accept are listed in
 docs/case_reference.md. Text keys (``title``, ``observe``, ``notes``,
-``pending``, ``unresolved``) are single paragraphs: line breaks and runs of
+``pending``, ``unresolved``, ``uncertainty``) are single paragraphs: line breaks and runs of
 spaces become one space, so long texts can be TOML multi-line strings.
 Validation is that of case files: any problem raises
 :class:`magfem.config.CaseError` naming the file, the key and the value.
@@ -42,7 +42,7 @@ STUDIES_DIR = Path("cases/studies")
 
 _IDENT = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 _SET = re.compile(r"^[A-Za-z_]\w*(\.\w+)*=")
-_TEXT_KEYS = ("title", "observe", "notes", "pending", "unresolved")
+_TEXT_KEYS = ("title", "observe", "notes", "pending", "unresolved", "uncertainty")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -100,6 +100,12 @@ class Study:
         "",
         doc="why finished runs are still not a prediction (e.g. a mesh coarser than the "
         "physics' length scale): the scene is then under-resolved",
+    )
+    uncertainty: str = option(
+        "",
+        doc="the numbers' numerical uncertainty where the study does not measure it by two "
+        "resolutions (compare), e.g. a convergence study of the same model elsewhere; with "
+        "neither, finished runs are not called predicted",
     )
     order: int = integer(0, ge=0, doc="position in the report: studies sorted by order, then by id")
 

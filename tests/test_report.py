@@ -113,6 +113,30 @@ def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, r
     ]
 
 
+def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
+    tmp_path, repo, monkeypatch
+):
+    """One resolution, nothing compared and no ``uncertainty``: the runs finished, yet the
+    scene is not predicted; the same study stating its uncertainty is, and shows it."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    text = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+    text += 'params = ["time.end=10ms"]\n'
+    (folder / "probe.toml").write_text(text, encoding="utf-8")
+    _write_points(tmp_path / "out", load_studies(folder)[0], [{"max_angle_arm": 1.0}])
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    assert "| [probe](#probe) | no uncertainty | 1/1 | 3 |" in page
+    assert "**Prediction missing:** the runs finished, but the study states no numerical" in page
+    stated = 'uncertainty = """±2° from the mesh study of the same strip."""\n'
+    (folder / "probe.toml").write_text(text + stated, encoding="utf-8")
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    assert "| [probe](#probe) | predicted | 1/1 | 3 |" in page
+    assert "- uncertainty: ±2° from the mesh study of the same strip." in page
+    assert "**Prediction missing:**" not in page
+
+
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
     """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
     monkeypatch.chdir(repo)
@@ -173,7 +197,8 @@ def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monk
     (tmp_path / "studies").mkdir()
     (tmp_path / "studies" / "probe.toml").write_text(
         'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "the angle"\n'
-        'params = ["time.end=1ms"]\ncolumns = ["max_strain"]\nsets = ["mesh.size=0.5mm", '
+        'params = ["time.end=1ms"]\ncolumns = ["max_strain"]\nuncertainty = "none: a probe"\n'
+        'sets = ["mesh.size=0.5mm", '
         '"output.vtx_every=0", "output.plot=false", "output.animation=false"]\n',
         encoding="utf-8",
     )

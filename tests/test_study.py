@@ -26,6 +26,7 @@ GOOD = {
     "notes": "a note",
     "pending": "why not yet",
     "unresolved": "why not a prediction",
+    "uncertainty": "what the numbers' uncertainty is",
     "order": 3,
 }
 
