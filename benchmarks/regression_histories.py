@@ -57,7 +57,18 @@ RUNS: dict[str, tuple[str, list[str]]] = {
             "solver.line_search=basic",
         ],
     ),
-    "flower_radial": ("flower.toml", ["time.end=6ms", "mesh.size=2mm"]),
+    "flower_radial": (  # the solid this history was saved with
+        "flower.toml",
+        [
+            "time.end=6ms",
+            "mesh.size=2mm",
+            "mesh.model=solid",
+            "solver.degree=2",
+            "time.step=0.5ms",
+            "solver.reuse_jacobian=false",
+            "solver.jacobian_free=false",
+        ],
+    ),
     "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm"]),
 }
 """name -> (case file, overrides). Outputs other than the history are switched off."""

@@ -70,8 +70,8 @@ def _tiny(size: str, end: str, step: str, *extra: str) -> list[str]:
 STRIP = ("mesh.layers=1",)
 NO_GROUND = ("contact.ground=false",)
 SCENES: dict[str, list[str]] = {
-    "five_arm": _tiny("1.5mm", "2ms", "0.5ms", *NO_GROUND),
-    "flower": _tiny("2mm", "2ms", "0.5ms", *NO_GROUND),
+    "five_arm": _tiny("1.5mm", "2ms", "0.5ms", "solver.degree=2", *NO_GROUND),
+    "flower": _tiny("2mm", "2ms", "0.5ms", "solver.degree=2", *NO_GROUND),
     "two_arm_20hz": _tiny("0.5mm", "3ms", "0.5ms", *STRIP),
     "one_arm_triangle": _tiny("2mm", "2ms", "0.5ms"),
     "two_arm_rect": _tiny("0.3mm", "2ms", "0.1ms", *STRIP),
