@@ -416,7 +416,7 @@ def _difference_lines(study: Study, first: dict[str, Any], last: dict[str, Any])
         resolution = (study.compare_by, *study.compare_also)
         rest = ", ".join(str(v) for n, v in first["params"].items() if n not in resolution)
         changes = ", ".join(f"{n} {last['params'][n]} vs {first['params'][n]}" for n in resolution)
-        label = f"{rest}: {changes}"
+        label = f"{rest}: {changes}" if rest else changes
     else:
         label = " vs ".join(", ".join(map(str, r["params"].values())) for r in (last, first))
     parts = []

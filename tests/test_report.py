@@ -113,6 +113,29 @@ def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, r
     ]
 
 
+def test_report_difference_line_of_a_study_of_resolutions_alone(tmp_path, repo, monkeypatch):
+    """``compare_by`` with no other parameter: one line naming the resolutions only."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    (folder / "probe.toml").write_text(
+        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\npaired = true\n'
+        'params = ["mesh.size=0.1mm,0.05mm", "time.step=0.2ms,0.1ms"]\n'
+        'compare = ["max_angle_arm"]\ncompare_by = "mesh.size"\ncompare_also = ["time.step"]\n',
+        encoding="utf-8",
+    )
+    study = load_studies(folder)[0]
+    _write_points(tmp_path / "out", study, [{"max_angle_arm": 1.0}, {"max_angle_arm": 1.01}])
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    page = build_report(tmp_path / "out", **kwargs).read_text()
+    lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
+    assert lines == [
+        "**Difference** (mesh.size 0.05mm vs 0.1mm, time.step 0.1ms vs 0.2ms): "
+        "max_angle_arm +0.6° (+1.0 %)."
+    ]
+    assert "| [probe](#probe) | predicted | 2/2 | 6 |" in page
+
+
 def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
     tmp_path, repo, monkeypatch
 ):
