@@ -53,6 +53,20 @@ def _write_points(out: Path, study, summaries: list[dict[str, float]]) -> None:
         (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
 
 
+def _probe_page(tmp_path: Path, body: str, summaries: list[dict[str, float]]) -> str:
+    """The page of a lone study ``probe`` (the self-clean case, the TOML keys ``body``) whose
+    finished points have ``summaries``, written under ``tmp_path``."""
+    folder = tmp_path / "studies"
+    folder.mkdir(exist_ok=True)
+    head = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+    (folder / "probe.toml").write_text(head + body, encoding="utf-8")
+    out = tmp_path / "out"
+    if not (out / "probe").exists():
+        _write_points(out, load_studies(folder)[0], summaries)
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    return build_report(out, **kwargs).read_text()
+
+
 def test_report_difference_lines_use_the_units_of_the_table(tmp_path, repo, monkeypatch):
     """The difference between the two resolutions of two-arm-20hz is written in the unit of
     the table's column: the bending speed in °/ms, not rad/s."""
@@ -74,19 +88,16 @@ def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, r
     """``compare_by``: one difference line per value of the other parameters, between that
     value's first and last run (two mesh sizes paired with two end times)."""
     monkeypatch.chdir(repo)
-    folder = tmp_path / "studies"
-    folder.mkdir()
-    (folder / "probe.toml").write_text(
-        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\npaired = true\n'
-        'params = ["time.end=10ms,10ms,20ms,20ms", "mesh.size=0.1mm,0.05mm,0.1mm,0.05mm"]\n'
-        'compare = ["max_angle_arm"]\ncompare_by = "mesh.size"\n',
-        encoding="utf-8",
-    )
-    study = load_studies(folder)[0]
     angles = [1.0, 1.0 + math.radians(2.0), 2.0, 2.0 - math.radians(0.5)]
-    _write_points(tmp_path / "out", study, [{"max_angle_arm": a} for a in angles])
+    page = _probe_page(
+        tmp_path,
+        'paired = true\nparams = ["time.end=10ms,10ms,20ms,20ms", '
+        '"mesh.size=0.1mm,0.05mm,0.1mm,0.05mm"]\ncompare = ["max_angle_arm"]\n'
+        'compare_by = "mesh.size"\n',
+        [{"max_angle_arm": a} for a in angles],
+    )
+    folder = tmp_path / "studies"
     kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
-    page = build_report(tmp_path / "out", **kwargs).read_text()
     lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
     # 2° of 57.3° (1 rad) is 3.5 %; −0.5° of 114.6° is −0.4 %
     assert lines == [
@@ -116,18 +127,12 @@ def test_report_compares_the_resolutions_at_each_value_of_the_others(tmp_path, r
 def test_report_difference_line_of_a_study_of_resolutions_alone(tmp_path, repo, monkeypatch):
     """``compare_by`` with no other parameter: one line naming the resolutions only."""
     monkeypatch.chdir(repo)
-    folder = tmp_path / "studies"
-    folder.mkdir()
-    (folder / "probe.toml").write_text(
-        'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\npaired = true\n'
-        'params = ["mesh.size=0.1mm,0.05mm", "time.step=0.2ms,0.1ms"]\n'
+    page = _probe_page(
+        tmp_path,
+        'paired = true\nparams = ["mesh.size=0.1mm,0.05mm", "time.step=0.2ms,0.1ms"]\n'
         'compare = ["max_angle_arm"]\ncompare_by = "mesh.size"\ncompare_also = ["time.step"]\n',
-        encoding="utf-8",
+        [{"max_angle_arm": 1.0}, {"max_angle_arm": 1.01}],
     )
-    study = load_studies(folder)[0]
-    _write_points(tmp_path / "out", study, [{"max_angle_arm": 1.0}, {"max_angle_arm": 1.01}])
-    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
-    page = build_report(tmp_path / "out", **kwargs).read_text()
     lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
     assert lines == [
         "**Difference** (mesh.size 0.05mm vs 0.1mm, time.step 0.1ms vs 0.2ms): "
@@ -142,19 +147,12 @@ def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
     """One resolution, nothing compared and no ``uncertainty``: the runs finished, yet the
     scene is not predicted; the same study stating its uncertainty is, and shows it."""
     monkeypatch.chdir(repo)
-    folder = tmp_path / "studies"
-    folder.mkdir()
-    text = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
-    text += 'params = ["time.end=10ms"]\n'
-    (folder / "probe.toml").write_text(text, encoding="utf-8")
-    _write_points(tmp_path / "out", load_studies(folder)[0], [{"max_angle_arm": 1.0}])
-    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
-    page = build_report(tmp_path / "out", **kwargs).read_text()
+    text = 'params = ["time.end=10ms"]\n'
+    page = _probe_page(tmp_path, text, [{"max_angle_arm": 1.0}])
     assert "| [probe](#probe) | no uncertainty | 1/1 | 3 |" in page
     assert "**Prediction missing:** the runs finished, but the study states no numerical" in page
     stated = 'uncertainty = """±2° from the mesh study of the same strip."""\n'
-    (folder / "probe.toml").write_text(text + stated, encoding="utf-8")
-    page = build_report(tmp_path / "out", **kwargs).read_text()
+    page = _probe_page(tmp_path, text + stated, [])  # the same finished point
     assert "| [probe](#probe) | predicted | 1/1 | 3 |" in page
     assert "- uncertainty: ±2° from the mesh study of the same strip." in page
     assert "**Prediction missing:**" not in page
