@@ -260,9 +260,6 @@ class _Snes:
 
 
 def test_jacobian_reuse_with_krylov_rebuilds_after_a_long_gmres_solve():
-    from dolfinx import mesh
-
-    mesh.create_unit_interval(MPI.COMM_SELF, 1)
     reuse = JacobianReuse(0.5, [], krylov_iterations=3)
     snes = _Snes()
     reuse.start()
