@@ -53,6 +53,29 @@ def test_sine_and_trigger():
     assert w.value(0.0125) == 1.0 and w.value(0.0099) == 0.0
 
 
+@pytest.mark.parametrize(
+    "table",
+    [
+        {"kind": "square", "frequency": "20 Hz", "start": "5 ms", "duration": "50 ms"},
+        {"kind": "sine", "frequency": "50 Hz", "phase": 0.3, "amplitude": -0.5},
+        {"kind": "trigger", "start": "10 ms", "duration": "5 ms"},
+        {"kind": "table", "times": [0.0, 0.01, 0.01, 0.03], "values": [0.0, 1.0, -1.0, 0.5]},
+    ],
+    ids=lambda t: t["kind"],
+)
+def test_a_scalar_time_gives_the_arrays_value_on_both_sides(table):
+    """The time loop asks one float at a time (a shortcut past the array path): the same
+    value on both sides of every switch, window edge and point in between."""
+    w = wave(**table)
+    edges = np.concatenate([w.breakpoints(-1.0, 0.1), [0.0, w.start]])
+    times = np.concatenate([edges, edges - 1e-9, edges + 1e-9, np.linspace(-0.01, 0.1, 57)])
+    for side in ("left", "right"):
+        array = w.value(times, side=side)
+        scalar = [w.value(float(t), side=side) for t in times]
+        assert all(isinstance(v, float) for v in scalar)
+        np.testing.assert_array_equal(scalar, array, err_msg=side)
+
+
 def test_delay_is_an_alias_of_start():
     assert wave(kind="dc", delay="3 ms").breakpoints(0.0, 1.0)[0] == pytest.approx(0.003)
     with pytest.raises(CaseError, match="not both"):

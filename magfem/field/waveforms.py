@@ -90,6 +90,12 @@ class Waveform(ABC):
     def value(self, t: Any, *, side: str = "right") -> Any:
         """w(t) (float for a scalar t, array of t's shape otherwise)."""
         _check_side(side)
+        if isinstance(t, (float, int)):  # the time loop's scalar, without the array steps
+            tf = float(t)
+            inside = self.start <= tf < self.end if side == "right" else self.start < tf <= self.end
+            if not inside:
+                return 0.0
+            return self.amplitude * float(self._raw(np.array([tf - self.start]), side)[0])
         ta = np.asarray(t, dtype=float)
         flat = np.atleast_1d(ta).ravel()
         if side == "right":
