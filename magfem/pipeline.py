@@ -201,6 +201,7 @@ def build_simulation(
         name=case.name,
         setup_time=setup_time,
         compile_time=time.perf_counter() - t1,
+        history_interval=case.output.history_interval,
     )
 
 

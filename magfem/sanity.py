@@ -180,7 +180,17 @@ class SwitchWatch(Writer):
         self.previous: tuple[float, list[float]] | None = None
         self.on_switch = False
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+    def _on_switch(self, t: float) -> bool:
+        """Whether t is a switching instant (steps land on them exactly)."""
+        return bool(len(self.switches(t - 1e-12 * max(abs(t), 1.0), t)))
+
+    def wants_row(self, step: int, t: float) -> bool:
+        return self.on_switch or self._on_switch(t)
+
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
+        if row is None:  # not a switch nor the step after one (wants_row)
+            self.previous, self.on_switch = None, False
+            return
         angles = [float(row[c]) for c in self.columns]
         if self.previous is not None and self.on_switch and not self.warned:
             t0, before = self.previous
@@ -192,8 +202,7 @@ class SwitchWatch(Writer):
                     f"after a field switch (more than {math.degrees(SWITCH_ROTATION):g} deg); "
                     f"a smaller time.step (now {t - t0:.3g} s there) resolves the response"
                 )
-        # the next step starts on a switch when t is one (steps land on them exactly)
-        self.on_switch = bool(len(self.switches(t - 1e-12 * max(abs(t), 1.0), t)))
+        self.on_switch = self._on_switch(t)  # the next step starts on a switch
         self.previous = (t, angles)
 
     def state(self) -> dict[str, Any]:

@@ -100,6 +100,44 @@ def test_resume_restores_cargo_obstacles_and_swimming(scene, comm, shared_tmp, r
         np.testing.assert_array_equal(resumed.history[key], values, err_msg=key)
 
 
+def _csv_times(path):
+    """The time column (s) of a history CSV."""
+    lines = path.read_text().splitlines()[1:]
+    return [float(line.split(",")[0]) for line in lines]
+
+
+@pytest.mark.slow  # over 0.3 s: not in the fast tier
+def test_a_history_interval_keeps_the_every_step_rows_and_resumes(comm, shared_tmp):
+    """``history_interval = 1 ms`` keeps the rows of the first steps at or after 1, 2, 3 ms
+    (and the step after the field's switch at 0, which the switch check reads), equal bit for
+    bit to the every-step run's rows there (the ground contact and the angle unwrapping,
+    which have memory, still see every step); a run stopped between samples keeps its last
+    step too, and resumed gives the uninterrupted sampled history."""
+    every = simulate(_case(), shared_tmp / "every", comm, progress=False)
+    case = _case(output={"history_interval": "1 ms"})
+    sampled = simulate(case, shared_tmp / "sampled", comm, progress=False)
+    times = every.history["time"]
+    kept = [0, 1] + [int(np.argmax(times >= k * 1e-3 - 1e-12)) for k in (1, 2, 3)]
+    assert len(times) > 2 * len(kept) and kept[-1] == len(times) - 1
+    assert sampled.history.keys() == every.history.keys()
+    for key, values in sampled.history.items():
+        np.testing.assert_array_equal(values, every.history[key][kept], err_msg=key)
+    cut, stop = shared_tmp / "cut", kept[2] + 2  # two steps past the 1 ms row
+    with pytest.raises(RunInterrupted):
+        simulate(case, cut, comm, progress=False, stop=_stop_at(stop))
+    comm.barrier()
+    if comm.rank == 0:  # the stopped run's CSV ends with its last step
+        expected = times[[0, 1, kept[2], stop]]
+        np.testing.assert_allclose(_csv_times(cut / "history.csv"), expected, rtol=1e-6)
+    comm.barrier()
+    resumed = simulate(case, cut, comm, progress=False, resume=True)
+    for key, values in sampled.history.items():
+        np.testing.assert_array_equal(resumed.history[key], values, err_msg=key)
+    if comm.rank == 0:
+        text = (shared_tmp / "sampled" / "history.csv").read_text()
+        assert (cut / "history.csv").read_text() == text
+
+
 def test_resume_refuses_a_changed_case(comm, shared_tmp):
     """Only time.end and the checkpoint keys may change; the message names the key."""
     case = _case(time={"end": "1 ms"})

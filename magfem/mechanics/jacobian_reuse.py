@@ -58,6 +58,7 @@ class JacobianReuse:
         self.watch = list(watch)
         self.valid = False
         self._values: tuple[float, ...] = ()
+        self._same: bool | None = None  # the watched values unchanged, once per solve
         self._previous = math.inf
         self.kept_this_solve = 0
         self.assembled_this_solve = 0
@@ -67,11 +68,16 @@ class JacobianReuse:
         return tuple(float(np.sum(c.value)) for c in self.watch)
 
     def _unchanged(self) -> bool:
-        pairs = zip(self._current(), self._values, strict=True)
-        return all(math.isclose(a, b, rel_tol=SAME_VALUE) for a, b in pairs)
+        """The watched values are those of the kept Jacobian (read once per solve: they
+        change between solves only)."""
+        if self._same is None:
+            pairs = zip(self._current(), self._values, strict=True)
+            self._same = all(math.isclose(a, b, rel_tol=SAME_VALUE) for a, b in pairs)
+        return self._same
 
     def start(self) -> None:
         """A new solve begins (its first iteration has no contraction yet)."""
+        self._same = None
         self._previous = math.inf
         self.kept_this_solve = 0
         self.assembled_this_solve = 0
@@ -101,4 +107,5 @@ class JacobianReuse:
         """A Jacobian was assembled: it is the one kept from now on."""
         self.valid = True
         self._values = self._current()
+        self._same = True
         self.assembled_this_solve += 1

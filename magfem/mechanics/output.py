@@ -10,7 +10,10 @@ fall due (:mod:`.animation`), and the PNG of the bending angle against time
 with the field waveform is drawn at the end.
 
 The time loop holds a list of :class:`Writer`; it calls :meth:`Writer.write`
-after every accepted step (and at t₀), and when the loop ends (complete,
+after every accepted step (and at t₀), with the history row or, at a step
+whose row the history does not keep (``[output] history_interval``), None;
+a writer that needs a row at a step says so in :meth:`Writer.wants_row`.
+When the loop ends (complete,
 stopped by a signal, or failed) :meth:`Writer.last` with the last step (the
 field series write the final state there), :meth:`Writer.close`, and
 :meth:`Writer.finish` with the history. Writers that a resumed run continues
@@ -56,8 +59,17 @@ History = Mapping[str, npt.NDArray[np.float64]]
 class Writer:
     """An output of a run, written while it goes (module docstring)."""
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
-        """After accepted step ``step`` (0: the initial state) ending at t (s)."""
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
+        """After accepted step ``step`` (0: the initial state) ending at t (s), with its
+        history row, or None where the history does not keep it."""
+
+    def wants_row(self, step: int, t: float) -> bool:
+        """Whether this writer needs the row of the step ending at t (same on every rank)."""
+        return False
+
+    def late(self, step: int, t: float, row: Mapping[str, float]) -> None:
+        """The row of step ``step``, kept after :meth:`write` had None for it: the last
+        step of a stopped or failed run (before :meth:`last`)."""
 
     def last(self, step: int, t: float, row: Mapping[str, float]) -> None:
         """The loop ended after step ``step`` at t (collective): write the state if skipped."""
@@ -206,13 +218,17 @@ def plot_angles(
 
 
 class CsvWriter(Writer):
-    """The history CSV (:class:`CsvHistory`), one row per accepted step."""
+    """The history CSV (:class:`CsvHistory`), one line per kept row."""
 
     def __init__(self, csv: CsvHistory):
         self.csv = csv
         self.path = csv.path
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
+        if row is not None:
+            self.csv.write(row)
+
+    def late(self, step: int, t: float, row: Mapping[str, float]) -> None:
         self.csv.write(row)
 
     def close(self) -> None:
@@ -243,7 +259,7 @@ class VtxWriter(Writer):
         self.vtx: VtxOutput | None = None
         self.written = -1  # the last step written
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
         if step % self.every == 0:
             self._write(step, t)
 
@@ -285,10 +301,13 @@ class MotionWriter(Writer):
         self.comm = comm
         self.title = title
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+    def wants_row(self, step: int, t: float) -> bool:
+        return self.snapshots.due(t)
+
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
         if step == 0:
             self.snapshots.clear()
-        if step == 0 or self.snapshots.due(t):
+        if row is not None and (step == 0 or self.snapshots.due(t)):
             self.snapshots.write(t, (row["Bx"], row["By"], row["Bz"]))
 
     def last(self, step: int, t: float, row: Mapping[str, float]) -> None:

@@ -84,7 +84,7 @@ class VtuSeries(Writer):
         types = np.concatenate([p[1] for p in pieces]).astype(np.uint8)
         return pyvista.UnstructuredGrid(cells, types, points)
 
-    def write(self, step: int, t: float, row: Mapping[str, float]) -> None:
+    def write(self, step: int, t: float, row: Mapping[str, float] | None) -> None:
         if step % self.every == 0:
             self._write(step, t)
 

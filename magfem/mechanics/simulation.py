@@ -4,8 +4,12 @@ Per step (dolfiny-style): choose Δt (:class:`~magfem.mechanics.stepping.StepCon
 → stage (integrator predictor, loads at the stage time, contacts refreshed)
 → Newton solve → accept (contacts act on the new state) or cut and retry.
 After every accepted step the observers give a history row, which the
-writers receive. The loop holds lists of loads, contacts, observers and
-writers and never names one.
+writers receive. With a history interval, the row is kept only at the first
+step at or after each multiple of the interval, at the last step and where a
+writer asks for one (an animation frame); at the other steps only the
+contacts and the observers with memory (a ``state`` method: angle unwrapping,
+integrals over time, touch events) observe, and the writers get no row. The
+loop holds lists of loads, contacts, observers and writers and never names one.
 
 The initial acceleration is consistent: M a₀ = −R(u₀, v₀, 0; t₀) (a linear
 solve), so gravity and a field switched on at t₀ act from the first step.
@@ -81,6 +85,8 @@ class Simulation:
         name: the run's name (progress bar).
         setup_time: seconds spent before (mesh, field), for the timings.
         compile_time: seconds spent compiling the observers' forms, for the timings.
+        history_interval: keep a history row every this many seconds (module
+            docstring; 0: every step).
     """
 
     def __init__(
@@ -94,6 +100,7 @@ class Simulation:
         name: str = "run",
         setup_time: float = 0.0,
         compile_time: float = 0.0,
+        history_interval: float = 0.0,
     ):
         self.problem = problem
         self.model = model = problem.model
@@ -120,7 +127,9 @@ class Simulation:
             contact.attach(self.solver)
         self.observers: list[Any] = [*problem.contacts, *observers]
         self.observer_compile_time = compile_time
-        self.rows: list[dict[str, float]] = []  # the history so far, one row per accepted step
+        self.history_interval = history_interval
+        self.rows: list[dict[str, float]] = []  # the history so far: the rows kept
+        self.pending: tuple[int, dict[str, float]] | None = None  # the last step's, if not kept
         self.events = EventLog(self.comm)
         # no reference back to this object from its parts: a cycle through PETSc objects
         # would leave their (collective) destruction to the garbage collector's timing
@@ -160,13 +169,34 @@ class Simulation:
                 out |= declared()
         return out
 
-    def observe(self, t: float) -> dict[str, float]:
-        """Observables at the accepted state u_n (collective). Angles in rad, energies in J."""
+    def observes_every_step(self, observer: Any) -> bool:
+        """Whether ``observer`` observes after every step, its row kept or not: a contact,
+        or an observer with memory (a ``state`` method)."""
+        return observer in self.problem.contacts or callable(getattr(observer, "state", None))
+
+    def observe(self, t: float, *, keep: bool = True) -> dict[str, float]:
+        """Observables at the accepted state u_n (collective). Angles in rad, energies in J.
+
+        ``keep=False``: only the observers that observe every step (:meth:`observes_every_step`).
+        """
         self.update_loads(t, "left", self.u)
         row: dict[str, float] = {"time": t}
         for observer in self.observers:
-            row |= observer.observe(t)
+            if keep or self.observes_every_step(observer):
+                row |= observer.observe(t)
         return row
+
+    def _keeps_row(self, step: int, t: float, writers: Sequence[Writer]) -> bool:
+        """Whether the history keeps the row of accepted step ``step`` ending at t (s)."""
+        interval = self.history_interval
+        if interval <= 0.0 or any(w.wants_row(step, t) for w in writers):
+            return True
+        start, end = self.time_spec.start, self.time_spec.end
+        if t >= end - 1e-12 * (end - start):
+            return True
+        last = float(self.rows[-1]["time"]) if self.rows else start
+        due = start + (np.floor((last - start) / interval + 1e-9) + 1.0) * interval
+        return bool(t >= due - 1e-9 * interval)
 
     def update_loads(self, t: float, side: str, displacement: Any) -> None:
         """Set every load to time t (s), on the ``side`` of a switch, at ``displacement``."""
@@ -422,17 +452,23 @@ class Simulation:
         """One accepted step from t, observed and written; returns the new time (s)."""
         t_new, report, cuts = self.step(t)
         dt = t_new - t
-        row = self.observe(t_new) | {
+        step = self.controller.steps
+        keep = self._keeps_row(step, t_new, writers)
+        row = self.observe(t_new, keep=keep) | {
             "dt": dt,
             "newton_iterations": report.iterations,
             "cuts": cuts,
         }
-        self.rows.append(row)
+        if keep:
+            self.rows.append(row)
+            self.pending = None
+        else:
+            self.pending = (step, row)
         for contact in self.problem.contacts:
             for message in contact.events():
                 self.events.say(message)
         for w in writers:
-            w.write(self.controller.steps, t_new, row)
+            w.write(step, t_new, row if keep else None)
         if self.events.bar is not None:
             self.events.bar.update(dt)
             self.events.bar.set_postfix_str(f"dt={dt:.2e} s, newton={report.iterations}")
@@ -446,7 +482,21 @@ class Simulation:
     def _finish(
         self, writers: Sequence[Writer], *, complete: bool
     ) -> dict[str, npt.NDArray[np.float64]]:
-        """The writers write the last state, close and finish (collective); returns the history."""
+        """The writers write the last state, close and finish (collective); returns the history.
+
+        The last accepted step's row is kept if it was not (a stopped or failed run).
+        """
+        if self.pending is not None:
+            step, row = self.pending
+            t = float(row["time"])
+            self.update_loads(t, "left", self.u)
+            for observer in self.observers:
+                if not self.observes_every_step(observer):
+                    row |= observer.observe(t)
+            self.rows.append(row)
+            self.pending = None
+            for w in writers:
+                w.late(step, t, row)
         step, row = self.controller.steps, self.rows[-1]
         for w in writers:
             w.last(step, float(row["time"]), row)

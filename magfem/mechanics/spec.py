@@ -438,6 +438,14 @@ class OutputSpec:
     """``[output]``: what is written while the run goes."""
 
     csv: bool = True
+    history_interval: float = quantity(
+        0.0,
+        "s",
+        ge=0.0,
+        doc="keep a history row (CSV, plots, summary) at the first step at or after each "
+        "multiple of this interval from time.start, at the last step and where the animation "
+        "takes a frame (0: every step); contacts and observers with memory still see every step",
+    )
     vtx_every: int = integer(
         10, ge=0, doc="write the displacement to VTX every N steps and at the end (0: never)"
     )
