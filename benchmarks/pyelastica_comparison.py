@@ -11,14 +11,23 @@ code's finest run (each code's converged reference).
 
 magfem: ``[mesh] model = "rod"`` (``root = "rigid"``, ``rod_bending =
 "beam"``), implicit generalized-α (ρ∞ = 0.5), steps of Δt (cut where Newton
-fails). PyElastica (optional: ``pip install pyelastica``): a Cosserat rod with
-the same rectangular section (bending E b t³/12 and E t b³/12, Saint-Venant
+fails). Every level but the reference runs as a user after speed would run it
+(:data:`FAST`): the kept Jacobian (``[solver] reuse_jacobian``), Newton to
+1e-4 of the predictor's residual (``rtol``; default 1e-6) and a history row
+every ms (``[output] history_interval``), the samples compared, as
+PyElastica's run records its tip angle every ms only; ``--plain`` runs them
+with magfem's defaults instead (full Newton to 1e-6, a row every step). The
+reference always runs with the defaults.
+
+PyElastica (optional: ``pip install pyelastica``): a Cosserat rod with the
+same rectangular section (bending E b t³/12 and E t b³/12, Saint-Venant
 torsion, 5/6 μ A shear, rotary inertia ρ I), explicit position Verlet, clamped
 by ``OneEndFixedBC``; the magnetic couple is a forcing class (m × B per
 element, m = M A Δl along the section normal d₁, in the material frame). Both
-run on one core; times are CPU seconds of the process (on a shared machine
-the wall time swings 2x with the other jobs) and exclude the one-off
-compilation (a warm-up run first).
+run on one core; times are CPU seconds of each code's time loop (on a shared
+machine the wall time swings 2x with the other jobs), after a warm-up run that
+compiles; each run's set-up (magfem: the mesh and the forms from the JIT cache;
+PyElastica: the rod and ``finalize``) is left out of both and printed apart.
 
 ``--damped``: both codes with the elastomer's Kelvin–Voigt damping of
 relaxation time β = tan δ/(2π f), default tan δ = 0.1 at f = 50 Hz
@@ -46,14 +55,15 @@ table also extrapolates its two finest levels. From the repository root:
     .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] [--decay|--stability|--split]
 
 (undamped ~2 min; ``--damped`` ~7 min; ``--decay`` ~1.5 min; ``--split``:
-where magfem's second-finest level spends its time, per step;
-``--reuse-jacobian``: magfem's runs with ``[solver] reuse_jacobian``).
+where magfem's second-finest level spends its time, per step, with the
+defaults and with each of :data:`FAST`'s settings added in turn).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -73,6 +83,9 @@ MU, RHO, M_R, B = vc.SHEAR_MODULUS, vc.DENSITY, vc.REMANENCE, 2e-3
 E = ref.young_modulus(MU, 100 * MU)
 END = vc.HALF_PERIOD
 SAMPLES = np.arange(0.0, END + 1e-9, 1e-3)  # s
+COMM = MPI.COMM_SELF  # both codes on one core
+SETUP: dict[str, list[float]] = {"magfem": [], "PyElastica": []}
+"""Each run's set-up CPU s (not in the times compared: :func:`setup_line`)."""
 
 MAGFEM_LEVELS = [  # (size m, degree, step s); the last is the reference
     (1e-3, 2, 0.5e-3),
@@ -101,17 +114,31 @@ ELASTICA_DAMPED_LEVELS = [(25, 2.5e-8), (50, 1.6e-8), (100, 8e-9)]  # (n, Δt s)
 ELASTIC_STEP = {25: 4e-6, 50: 2e-6, 100: 1e-6}  # s, the undamped levels' steps
 DECAY_MODE, DECAY_PUSH, DECAY_END, DECAY_EVERY = 4, 1e-3, 15e-3, 2e-5  # 133 Hz; m/s; s; s
 CLAMP = vc.CLAMP_LENGTH  # m, where magfem's rigid root ends (x of s = 0)
-SOLVER: dict[str, Any] = {}
-"""More ``[solver]`` keys of magfem's runs (``--reuse-jacobian``)."""
+FAST: dict[str, dict[str, Any]] = {
+    "solver": {"reuse_jacobian": True, "rtol": 1e-4},
+    "output": {"history_interval": 1e-3},
+}
+"""The settings of magfem's levels but the reference (module docstring; ``--plain``: none).
+Each moves no level's error by more than 0.001° (``--split`` and the tables with
+``--plain``; docs/verification.md 6c)."""
+PLAIN: dict[str, dict[str, Any]] = {"solver": {}, "output": {}}
+"""magfem's defaults (the reference, ``--plain``)."""
 
 
 def magfem_case(
-    size: float, degree: int, step: float, beta: float = 0.0, field: Any = None, end: float = END
+    size: float,
+    degree: int,
+    step: float,
+    beta: float = 0.0,
+    field: Any = None,
+    end: float = END,
+    settings: dict[str, dict[str, Any]] = PLAIN,
 ) -> Case:
     """The case of magfem's rod at one level (mesh size m, degree, step s), with the
-    material damping of relaxation time ``beta`` (s; 0: none) in ``field`` (default: the drive)."""
+    material damping of relaxation time ``beta`` (s; 0: none) in ``field`` (default: the drive)
+    and the ``[solver]`` and ``[output]`` keys of ``settings`` (:data:`FAST`, :data:`PLAIN`)."""
     damping = [{"kind": "material_damping", "relaxation_time": beta}] if beta else []
-    return vc.cantilever_case(
+    case = vc.cantilever_case(
         "rod",
         size,
         W,
@@ -121,43 +148,60 @@ def magfem_case(
         mesh_options={"rod_bending": "beam"},
         field=vc.DRIVE if field is None else field,
         time={"end": end, "step": step, "rho_inf": 0.5},
-        solver={"degree": degree, **SOLVER},
+        solver={"degree": degree, **settings["solver"]},
         loads=damping,
     )
+    return replace(case, output=replace(case.output, **settings["output"]))
 
 
 def magfem_run(
     size: float, degree: int, step: float, beta: float = 0.0, **kwargs: Any
 ) -> tuple[float, np.ndarray]:
-    """(CPU s, tip angle in degrees at SAMPLES) of magfem's rod (``kwargs``: ``field``,
-    ``end`` of :func:`magfem_case`, ``samples`` (s) in place of SAMPLES)."""
+    """(CPU s of the time loop, tip angle in degrees at SAMPLES) of magfem's rod (``kwargs``:
+    ``field``, ``end``, ``settings`` of :func:`magfem_case`, ``samples`` (s) in place of
+    SAMPLES); the set-up's CPU s (mesh, forms from the JIT cache) goes to ``SETUP``."""
     samples = kwargs.pop("samples", SAMPLES)
     start = time.process_time()
-    sim = build_simulation(magfem_case(size, degree, step, beta, **kwargs), MPI.COMM_SELF)
+    sim = build_simulation(magfem_case(size, degree, step, beta, **kwargs), COMM)
+    loop = time.process_time()
     history = sim.run(progress=False).history
-    wall = time.process_time() - start
-    return wall, np.interp(samples, history["time"], np.degrees(history["angle_arm"]))
+    cpu = time.process_time() - loop
+    SETUP["magfem"].append(loop - start)
+    return cpu, np.interp(samples, history["time"], np.degrees(history["angle_arm"]))
 
 
 def magfem_split(size: float, degree: int, step: float, beta: float = 0.0) -> None:
-    """Print where one level's run spends its time, per step (``--split``)."""
-    magfem_run(size, degree, step, beta)  # compilation
-    sim = build_simulation(magfem_case(size, degree, step, beta), MPI.COMM_SELF)
-    start = time.process_time()
-    result = sim.run(progress=False)
-    cpu = time.process_time() - start
-    steps = len(result.history["time"]) - 1
-    newton = int(result.history["newton_iterations"].sum())
-    timings = result.timings
-    parts = ", ".join(
-        f"{k} {timings[k] / steps * 1e3:.2f}" for k in ("residual", "jacobian", "linear_solve")
-    )
-    rest = timings["total"] - sum(timings[k] for k in ("residual", "jacobian", "linear_solve"))
-    rank0_print(
-        f"{size * 1e3:g} mm P{degree}, dt {step * 1e3:g} ms: {steps} steps, {newton} Newton "
-        f"iterations, CPU {cpu / steps * 1e3:.2f} ms per step; wall ms per step: {parts}, "
-        f"the rest (observers, loads, integrator, SNES) {rest / steps * 1e3:.2f}"
-    )
+    """Print where one level's run spends its time, per step, and its error against the
+    reference, with magfem's defaults and :data:`FAST`'s settings added one by one
+    (``--split``)."""
+    reference = magfem_run(*(MAGFEM_DAMPED_LEVELS if beta else MAGFEM_LEVELS)[-1], beta)[1]
+    solver, output = FAST["solver"], FAST["output"]
+    variants = [
+        ("defaults", PLAIN),
+        ("+ reuse_jacobian", {"solver": {"reuse_jacobian": True}, "output": {}}),
+        (f"+ rtol {solver['rtol']:g}", {"solver": solver, "output": {}}),
+        (f"+ history_interval {output['history_interval'] * 1e3:g} ms", FAST),
+    ]
+    for label, settings in variants:
+        sim = build_simulation(magfem_case(size, degree, step, beta, settings=settings), COMM)
+        start = time.process_time()
+        result = sim.run(progress=False)
+        cpu = time.process_time() - start
+        history = result.history
+        angles = np.interp(SAMPLES, history["time"], np.degrees(history["angle_arm"]))
+        steps, iterations = result.summary["steps"], result.effort["iterations"]
+        timings = result.timings
+        parts = ", ".join(
+            f"{k} {timings[k] / steps * 1e3:.2f}" for k in ("residual", "jacobian", "linear_solve")
+        )
+        rest = timings["total"] - sum(timings[k] for k in ("residual", "jacobian", "linear_solve"))
+        rank0_print(
+            f"{size * 1e3:g} mm P{degree}, dt {step * 1e3:g} ms, {label}: {steps:g} steps, "
+            f"{iterations} Newton iterations, {result.effort['jacobians']} Jacobians, CPU "
+            f"{cpu:.2f} s ({cpu / steps * 1e3:.2f} ms per step); wall ms per step: {parts}, "
+            f"the rest (observers, loads, integrator, SNES) {rest / steps * 1e3:.2f}; "
+            f"max error 0-25 ms {np.max(np.abs(angles - reference)):.3f} deg"
+        )
 
 
 class _ElasticaForcing:
@@ -214,6 +258,7 @@ def elastica_run(
     ``field`` (T, 3-vector; default the drive's 2 mT along −x, which is on for 0–25 ms),
     ``every`` (s, default 1 ms), ``push`` (start in mode ``DECAY_MODE``), ``energy`` (a
     list: the kinetic and elastic energy (J) at each sample is appended to it)."""
+    setup = time.process_time()
     forcing = _ElasticaForcing()
     ea = forcing.ea
 
@@ -252,6 +297,7 @@ def elastica_run(
     every = round(kwargs.get("every", 1e-3) / dt)
     angles = [0.0]
     start = time.process_time()
+    SETUP["PyElastica"].append(start - setup)
     for k in range(round(end / dt)):
         now = stepper.step(sim, now, np.float64(dt))
         if (k + 1) % every == 0:
@@ -302,7 +348,7 @@ def magfem_decay(beta: float, t: np.ndarray) -> tuple[float, np.ndarray, np.ndar
     start = time.process_time()
     field = {"sources": [{"kind": "uniform", "flux_density": 0.0, "direction": [-1, 0, 0]}]}
     case = magfem_case(0.25e-3, 3, 31.25e-6, beta, field=field, end=float(t[-1]))
-    sim = build_simulation(case, MPI.COMM_SELF)
+    sim = build_simulation(case, COMM)
 
     def push(X: np.ndarray) -> np.ndarray:
         return np.stack([0 * X[0], 0 * X[0], DECAY_PUSH * mode_shape(X[0] - CLAMP)[0]])
@@ -390,15 +436,19 @@ def compare(report: Report, name: str, runs: list[tuple[str, float, np.ndarray]]
 
 
 def table(report: Report, beta: float, magfem_levels: list, elastica_levels: list) -> tuple:
-    """Both codes' rows at relaxation time ``beta`` (s); returns the rows of :func:`compare`,
+    """Both codes' rows at relaxation time ``beta`` (s), magfem's but the reference with the
+    settings :data:`FAST` (:data:`PLAIN` with ``--plain``); returns the rows of
+    :func:`compare`,
     magfem's reference and every PyElastica run's angles, (magfem, PyElastica, magfem
     reference, [PyElastica angles per level])."""
     for degree in (2, 3):  # compilation
         magfem_run(1e-3, degree, 0.5e-3, beta, end=1e-3)
     runs = [
-        (f"{s * 1e3:g} mm P{p}, dt {dt * 1e3:g} ms", *magfem_run(s, p, dt, beta))
-        for s, p, dt in magfem_levels
+        (f"{s * 1e3:g} mm P{p}, dt {dt * 1e3:g} ms", *magfem_run(s, p, dt, beta, settings=FAST))
+        for s, p, dt in magfem_levels[:-1]
     ]
+    s, p, dt = magfem_levels[-1]
+    runs.append((f"{s * 1e3:g} mm P{p}, dt {dt * 1e3:g} ms", *magfem_run(s, p, dt, beta)))
     magfem, magfem_reference = compare(report, "magfem rod", runs), runs[-1][2]
     elastica_run(10, 1e-6, 1e-5, beta)  # compilation
     runs = [
@@ -419,6 +469,13 @@ def ratios(report: Report, magfem: list, elastica: list, name: str = "PyElastica
             )
 
 
+def setup_line() -> str:
+    """The range of each code's set-up time per run, which the compared times leave out."""
+    parts = [f"{k} {min(v):.2f}-{max(v):.2f} s" for k, v in SETUP.items() if v]
+    head = "set-up per run, not counted (magfem: mesh and forms from the JIT cache; "
+    return f"{head}PyElastica: rod and finalize): " + ", ".join(parts)
+
+
 def gap_line(magfem_reference: np.ndarray, elastica_reference: np.ndarray) -> str:
     """The difference of the two converged answers, largest and every ms (deg)."""
     gap = np.abs(magfem_reference - elastica_reference)
@@ -435,6 +492,7 @@ def undamped() -> None:
     report.add("")
     ratios(report, magfem, elastica)
     report.add(gap_line(a, b[-1]))
+    report.add(setup_line())
     report.print()
 
 
@@ -459,6 +517,7 @@ def damped(beta: float) -> None:
     report.add("bound: the damped errors at the undamped CPU time of PyElastica's elastic step:")
     ratios(report, magfem, bound, "PyElastica bound")
     report.add(gap_line(a, b[-1]))
+    report.add(setup_line())
     richardson = np.abs(2 * b[-1] - b[-2] - a)  # PyElastica's first-order clamp error removed
     report.add(
         f"PyElastica extrapolated to zero element length (2 a_n - a_n/2, first order) vs "
@@ -486,11 +545,11 @@ def main() -> None:
     parser.add_argument("--split", action="store_true", help="magfem's time per step")
     parser.add_argument("--stability", action="store_true", help="PyElastica's damped steps")
     parser.add_argument(
-        "--reuse-jacobian", action="store_true", help="magfem keeps its Jacobian (modified Newton)"
+        "--plain", action="store_true", help="magfem's levels with its defaults, not FAST's"
     )
     args = parser.parse_args()
-    if args.reuse_jacobian:
-        SOLVER["reuse_jacobian"] = True
+    if args.plain:
+        FAST.update(PLAIN)
     beta = args.loss_tangent / (2 * np.pi * args.frequency) if args.damped else 0.0
     if args.split:
         magfem_split(*(MAGFEM_DAMPED_LEVELS if beta else MAGFEM_LEVELS)[-2], beta)
