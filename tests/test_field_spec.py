@@ -157,6 +157,23 @@ SQUARE = {"kind": "square", "frequency": "2 Hz"}
             ],
             1.0,
         ),
+        # the flower's trigger, then its drive: never on together, so they do not add (3 mT;
+        # added they would give 4.46 mT); a DC from 0.3 s overlaps the drive and adds
+        (
+            [
+                _uniform("2 mT", [1, 1, 1], {"kind": "trigger", "duration": "0.1 s"}),
+                _uniform("3 mT", [0, 0, 1], SQUARE | {"start": "0.1 s"}),
+            ],
+            1.0,
+        ),
+        (
+            [
+                _uniform("2 mT", [1, 1, 1], {"kind": "trigger", "duration": "0.1 s"}),
+                _uniform("3 mT", [0, 0, 1], SQUARE | {"start": "0.1 s"}),
+                _uniform("1 mT", [1, 0, 0], {"start": "0.3 s"}),
+            ],
+            1.0,
+        ),
         # a rotating field of sines in quadrature: |B| = 1 mT, the bound sqrt(2) too large
         (
             [

@@ -38,7 +38,8 @@ response is then not proportional to the sources' strength.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -173,30 +174,47 @@ class FieldSpec:
     def nominal_flux_bound(self) -> float:
         """Largest |B| (T) the sources' nominal flux densities add up to at one instant.
 
-        Uniform sources add as vectors, each scaled by any value in its
+        Only sources on at the same instant add: the bound is the largest over the
+        instants where a source switches on (each set of sources on together is on at
+        the latest of their starts), so a trigger and a drive that follows it do not
+        add. Uniform sources add as vectors, each scaled by any value in its
         waveform's range (:meth:`WaveformSpec.extremes`); |Σ| is convex, so the
         largest is at a corner of the ranges: exact for square waves, at most
         √n too large for n sines in quadrature. A coil's nominal (centre) flux
         density adds its magnitude times its waveform's; sources without one
         add nothing.
         """
-        vectors, ranges, rest = [], [], 0.0
+        windows = []
         for spec in self.sources:
-            lo, hi = spec.waveform.extremes()
-            if isinstance(spec, UniformSourceSpec):
-                vectors.append(spec.flux_density * spec.unit_direction)
-                ranges.append((lo, hi))
-            else:
-                rest += float(getattr(spec, "flux_density", None) or 0.0) * max(-lo, hi)
+            wave = spec.waveform
+            end = math.inf if wave.duration is None else wave.start + wave.duration
+            windows.append((wave.start, end))
         best = 0.0
-        for corner in itertools.product(*ranges):
-            total = sum((c * v for c, v in zip(corner, vectors, strict=True)), np.zeros(3))
-            best = max(best, float(np.linalg.norm(total)))
-        return best + rest
+        for t, _ in windows:
+            on = [s for s, (a, b) in zip(self.sources, windows, strict=True) if a <= t < b]
+            best = max(best, _flux_bound(on))
+        return best
 
     def motion(self, name: str) -> MotionSpec | None:
         """The motion called ``name`` ('' → None)."""
         return next((m for m in self.motions if m.name == name), None) if name else None
+
+
+def _flux_bound(sources: Sequence[Any]) -> float:
+    """Largest |B| (T) of ``sources`` all on (:meth:`FieldSpec.nominal_flux_bound`)."""
+    vectors, ranges, rest = [], [], 0.0
+    for spec in sources:
+        lo, hi = spec.waveform.extremes()
+        if isinstance(spec, UniformSourceSpec):
+            vectors.append(spec.flux_density * spec.unit_direction)
+            ranges.append((lo, hi))
+        else:
+            rest += float(getattr(spec, "flux_density", None) or 0.0) * max(-lo, hi)
+    best = 0.0
+    for corner in itertools.product(*ranges):
+        total = sum((c * v for c, v in zip(corner, vectors, strict=True)), np.zeros(3))
+        best = max(best, float(np.linalg.norm(total)))
+    return best + rest
 
 
 def _check_motions(spec: FieldSpec) -> None:
