@@ -463,6 +463,9 @@ def ratios(report: Report, magfem: list, elastica: list, name: str = "PyElastica
     for column, window in ((1, "0-25 ms"), (2, "0-6 ms")):
         for tolerance in (1.0, 0.1):
             a, b = time_to(magfem, tolerance, column), time_to(elastica, tolerance, column)
+            if np.isinf(a) and np.isinf(b):
+                report.add(f"{window}, to {tolerance:g} deg: neither code at these levels")
+                continue
             report.add(
                 f"{window}, to {tolerance:g} deg: magfem {a:.2f} s, {name} {b:.2f} s, "
                 f"{name}/magfem {b / a:.2f}"
