@@ -22,12 +22,7 @@ on every rank alike) writes its last state too; any other exception may be
 one rank's only and ends the loop without collective calls.
 
 Quasi-static runs start from the static equilibrium under their constant
-loads (gravity) at t₀, reached by load continuation
-(:meth:`Simulation.settle`): a thin strip's sag under its own weight is a
-large deflection that Newton from the flat state does not reach, and a
-constant load does not shrink when the time step is cut. The load factor λ
-goes 0 → 1 in increments that halve after a failed solve (state restored)
-and double after an easy one.
+loads at t₀ (:mod:`.settling`).
 """
 
 from __future__ import annotations
@@ -55,6 +50,7 @@ from magfem.mechanics.observers import Observer, history_summary
 from magfem.mechanics.output import Writer
 from magfem.mechanics.problem import Problem
 from magfem.mechanics.run_record import EventLog, SimulationResult
+from magfem.mechanics.settling import settle
 from magfem.mechanics.solver import NewtonReport, NewtonSolver, load_norm, solve_linear
 from magfem.mechanics.spec import SolverSpec, TimeSpec
 from magfem.mechanics.stepping import (
@@ -211,7 +207,7 @@ class Simulation:
         t0 = self.time_spec.start
         integ.set_state(t0)
         if not integ.dynamic:
-            self.settle()
+            settle(self)
             return None
         self.update_loads(t0, "right", self.u)
         integ.t.value = t0  # type: ignore[assignment]
@@ -237,67 +233,7 @@ class Simulation:
         if self.problem.pressure is not None:
             self.problem.pressure.guess()
 
-    def settle(self, *, smallest: float = 1.0 / 1024) -> int:
-        """Quasi-static: solve the equilibrium at t₀ by load continuation of the constant loads.
-
-        Returns the number of accepted load increments (0 when no load ramps).
-
-        Raises:
-            SimulationError: an increment below ``smallest`` failed.
-        """
-        loads = [load for load in self.problem.loads if load.ramp(1.0)]
-        if self.integrator.dynamic or not loads:
-            return 0
-        t0 = self.time_spec.start
-        self.update_loads(t0, "left", self.u)
-        acceleration = sum(
-            (a for a in (load.body_acceleration() for load in loads) if a is not None),
-            np.zeros(self.gdim),
-        )
-        for contact in self.problem.contacts:
-            contact.press(self.model, acceleration)
-        lam, step, accepted = 0.0, 1.0, 0
-        try:
-            while lam < 1.0:
-                trial = min(1.0, lam + step)
-                for load in loads:
-                    load.ramp(trial)
-                report = self._solve(0.0, settling=True)
-                if report.converged:
-                    lam, accepted = trial, accepted + 1
-                    self.controller.newton_iterations += report.iterations
-                    if report.effort <= self.time_spec.easy_iterations:
-                        step = min(2 * step, 1.0)
-                    continue
-                step /= 2
-                self.log.append(
-                    f"load continuation: λ = {lam:.4g} -> {trial:.4g} failed "
-                    f"({report.reason_name}); increment {step:.3g}"
-                )
-                if step < smallest:
-                    raise SimulationError(
-                        f"t = {t0:.6g} s: load continuation stalled at λ = {lam:.4g} "
-                        f"({report.reason_name}, ‖R‖ = {report.residual_norm:.3g})"
-                    )
-        finally:
-            for load in loads:
-                load.ramp(1.0)
-        self.log.append(f"load continuation: equilibrium at t₀ in {accepted} increment(s)")
-        return accepted
-
-    def _solve(self, dt: float, *, settling: bool = False) -> NewtonReport:
-        """One attempted step of length dt from t_n: accepted, or the state restored.
-
-        ``settling``: a load-continuation increment at t₀ (loads as they are, no retry).
-        """
-        report = self._attempt(dt, settling=settling)
-        if report.converged:
-            self._accept()
-        else:
-            self.integrator.restore()
-        return report
-
-    def _accept(self) -> None:
+    def accept(self) -> None:
         """Accept the solved step: the integrator advances, contacts act on the new state."""
         integ = self.integrator
         integ.advance()
@@ -305,8 +241,11 @@ class Simulation:
             for contact in self.problem.contacts:
                 contact.after_step()
 
-    def _attempt(self, dt: float, *, settling: bool = False) -> NewtonReport:
-        """Solve the step of length dt from t_n; the caller accepts it or restores u_n."""
+    def attempt(self, dt: float, *, settling: bool = False) -> NewtonReport:
+        """Solve the step of length dt from t_n; the caller accepts it or restores u_n.
+
+        ``settling``: a load-continuation increment at t₀ (loads as they are, no retry).
+        """
         integ = self.integrator
         t_stage = integ.begin(dt)
         if not settling:
@@ -341,7 +280,7 @@ class Simulation:
         dt, on_break = control.next_step(t)
         cuts, error = 0, None
         while True:
-            report = self._attempt(dt)
+            report = self.attempt(dt)
             if report.converged:
                 error = integ.local_error() if control.controls_error else None
                 retry = control.judge(t, dt, error, cuts)
@@ -352,7 +291,7 @@ class Simulation:
             integ.restore()
             cuts += 1
             dt, on_break = retry, False
-        self._accept()
+        self.accept()
         t_new = control.land(t, dt, on_break)
         integ.time = t_new
         if on_break:  # the error estimate and the step-change shift restart at a switch
