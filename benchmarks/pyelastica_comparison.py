@@ -119,8 +119,8 @@ FAST: dict[str, dict[str, Any]] = {
     "output": {"history_interval": 1e-3},
 }
 """The settings of magfem's levels but the reference (module docstring; ``--plain``: none).
-Each moves no level's error by more than 0.001° (``--split`` and the tables with
-``--plain``; docs/verification.md 6c)."""
+Together they move no level's error by more than 0.001° but the two coarsest, 7–9° off, by
+up to 0.6° (the tables with and without ``--plain``; ``--split``; docs/verification.md 6c)."""
 PLAIN: dict[str, dict[str, Any]] = {"solver": {}, "output": {}}
 """magfem's defaults (the reference, ``--plain``)."""
 
