@@ -28,6 +28,7 @@ __all__ = [
     "MAX_ELEMENTS",
     "MAX_FIELD",
     "MAX_STEPS",
+    "MIN_ROWS_PER_PERIOD",
     "MIN_SIZE_PER_THICKNESS",
     "MIN_STEPS_PER_PERIOD",
     "START_STEP_FRACTION",
@@ -41,6 +42,9 @@ MAX_FIELD = 1.0
 """T: a nominal field above this at the robot is implausible (the robots work at 0.5-25 mT)."""
 MIN_STEPS_PER_PERIOD = 10
 """A periodic drive resolved by fewer time steps per period is implausible."""
+MIN_ROWS_PER_PERIOD = 20
+"""A periodic drive sampled by fewer history rows per period (``[output] history_interval``)
+is implausible: the summary's peaks and periods read the kept rows only."""
 MAX_STEPS = 1_000_000
 """More time steps than this (at least one per switch and per nominal step) take days."""
 MIN_SIZE_PER_THICKNESS = 0.25
@@ -89,6 +93,14 @@ def _drive(case: Case) -> list[str]:
                 f"field.sources[{i}].waveform.frequency = {frequency:.4g} Hz: a period is "
                 f"{per_period:.3g} time steps of time.step = {time.step:.3g} s (fewer than "
                 f"{MIN_STEPS_PER_PERIOD}); the drive is not resolved"
+            )
+        interval = case.output.history_interval
+        rows = 1.0 / (frequency * interval) if interval > 0.0 else math.inf
+        if rows < MIN_ROWS_PER_PERIOD:
+            lines.append(
+                f"output.history_interval = {interval:.3g} s keeps {rows:.3g} rows per period "
+                f"of field.sources[{i}] ({frequency:.4g} Hz; fewer than {MIN_ROWS_PER_PERIOD}): "
+                "the history and its summary miss the peaks"
             )
     if steps > MAX_STEPS:
         lines.append(

@@ -37,6 +37,13 @@ def test_the_strip_case_is_plausible():
         ({"field__sources__waveform": {"kind": "square", "frequency": "500 Hz"}}, "not resolved"),
         ({"mesh__size": "19 um"}, "below 0.25 of the thickness"),
         ({"time__end": "300 s"}, "would take days"),
+        (
+            {
+                "field__sources__waveform": {"kind": "square", "frequency": "100 Hz"},
+                "output__history_interval": "0.6 ms",
+            },
+            "miss the peaks",
+        ),
     ],
 )
 def test_each_implausible_value_warns_with_one_line(changes, words):
@@ -51,6 +58,11 @@ def test_each_implausible_value_warns_with_one_line(changes, words):
         # 10 steps of 0.25 ms per period: at the limit, not below it
         {"field__sources__waveform": {"kind": "square", "frequency": "400 Hz"}},
         {"mesh__size": "21 um"},
+        # 20 rows per period of 100 Hz: at the limit
+        {
+            "field__sources__waveform": {"kind": "square", "frequency": "100 Hz"},
+            "output__history_interval": "0.5 ms",
+        },
     ],
 )
 def test_values_inside_the_limits_do_not_warn(changes):
