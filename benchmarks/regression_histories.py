@@ -69,7 +69,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
             "solver.jacobian_free=false",
         ],
     ),
-    "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm"]),
+    "active_length_quasi_static": ("active_length.toml", ["mesh.size=1mm", "robot.length=10mm"]),
 }
 """name -> (case file, overrides). Outputs other than the history are switched off."""
 

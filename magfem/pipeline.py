@@ -272,7 +272,9 @@ def _observers(
     observers: list[Observer] = []
     if arms:
         observers.append(ArmAngles(model.u, arms))
-        observers.append(Midline(model.u, arms, model.thickness, _bonded_lengths(case, model)))
+        bonded = _bonded_lengths(case, model)
+        spacing = case.output.midline_spacing
+        observers.append(Midline(model.u, arms, model.thickness, bonded, spacing))
     probe = StrainProbe(
         model.u,
         _support_points(model),

@@ -80,6 +80,8 @@ def _shown(key: str) -> tuple[float, str, str]:
         return math.degrees(1.0) / 1e3, ".2f", " °/ms"  # rad/s -> °/ms
     if "active_length" in key:
         return 1e3, ".2f", " mm"
+    if key.startswith("field_90"):
+        return 1e3, ".2f", " mT"
     if "angle" in key:
         return math.degrees(1.0), ".1f", "°"
     return 1.0, ".3g", ""
@@ -103,6 +105,8 @@ def _unit(key: str) -> str:
         return " (°/ms, 0° → 90°)"
     if "active_length" in key:
         return " (mm)"
+    if key.startswith("field_90"):
+        return " (mT, for 90°)"
     return ""
 
 
@@ -422,8 +426,15 @@ def _difference_lines(study: Study, first: dict[str, Any], last: dict[str, Any])
     parts = []
     for key in study.compare:
         a, b = first["summary"].get(key), last["summary"].get(key)
-        if isinstance(a, float) and isinstance(b, float) and a != 0.0:
-            factor, spec, unit = _shown(key)
+        if not (isinstance(a, float) and isinstance(b, float)):
+            continue
+        factor, spec, unit = _shown(key)
+        if math.isnan(a) and math.isnan(b):  # e.g. an angle neither run reached
+            parts.append(f"{key} – in both")
+        elif math.isnan(a) or math.isnan(b):
+            shown = (_fmt(key, v) + ("" if unit == "°" or math.isnan(v) else unit) for v in (b, a))
+            parts.append(f"{key} {' vs '.join(shown)}")
+        elif a != 0.0:
             change = f"{factor * (b - a):+{spec}}{unit}"
             parts.append(f"{key} {change} ({100 * (b - a) / abs(a):+.1f} %)")
     return [f"**Difference** ({label}): " + "; ".join(parts) + ".", ""]

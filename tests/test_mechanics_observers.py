@@ -83,10 +83,62 @@ def test_s_shape_and_two_creases_are_two_folds():
     bend = np.clip(s_mid - 0.1 * L, 0, 0.1 * L) + np.clip(s_mid - 0.6 * L, 0, 0.1 * L)
     shape = midline_shape(S, *_from_angles(k * bend), L)
     assert shape.folds == 2
-    assert abs(shape.active_length - 0.7 * L) <= H
+    # the bent part runs from the first crease's start to the second's end
+    assert abs(shape.active_length - 0.6 * L) <= H
+    assert abs(shape.active_start - 0.1 * L) <= H
     # a bend below the fold angle (30 deg) is not a fold
     shape = midline_shape(S, *_from_angles(np.radians(30) / L * s_mid), L)
     assert shape.folds == 0
+
+
+@pytest.mark.parametrize(("a_frac", "b_frac"), [(0.5, 0.6), (0.3, 0.9), (0.75, 0.8)])
+def test_bend_away_from_the_root_is_measured_from_where_it_starts(a_frac, b_frac):
+    # flat over [0, a], a circular arc turning 90 deg over [a, b], then straight: a long arm
+    # lying on the ground that lifts its tip. The bent part is b - a, whatever the flat part;
+    # a and b fall on samples, where the curvature is half the arc's (above eta), so the span
+    # is exact to rounding
+    a_len, b_len = a_frac * L, b_frac * L
+    k = math.radians(90) / (b_len - a_len)
+    s_mid = S[:-1] + H / 2
+    phi = k * np.clip(s_mid - a_len, 0.0, b_len - a_len)
+    shape = midline_shape(S, *_from_angles(phi), L)
+    assert shape.active_length == pytest.approx(b_len - a_len, abs=1e-9 * L)
+    assert shape.active_start == pytest.approx(a_len, abs=1e-9 * L)
+    assert shape.folds == 1
+
+
+def test_slight_kink_at_the_root_does_not_extend_the_bent_part():
+    # a bonded edge's kink (the first segment at -0.5 deg: a curvature above eta of the main
+    # bend's, over one spacing), flat, then the lift-off bend of 80 deg over [0.6, 0.9] L: the
+    # kink turns less than eta times the bend, so only the bend counts
+    s_mid = S[:-1] + H / 2
+
+    def bend(a, b, turn_deg):
+        return math.radians(turn_deg) * np.clip((s_mid - a) / (b - a), 0.0, 1.0)
+
+    phi = bend(0.6 * L, 0.9 * L, 80.0)
+    phi[0] = math.radians(-0.5)
+    shape = midline_shape(S, *_from_angles(phi), L)
+    assert shape.active_length == pytest.approx(0.3 * L, abs=1e-9 * L)
+    assert shape.active_start == pytest.approx(0.6 * L, abs=1e-9 * L)
+    # a second bend of -20 deg over [0.1, 0.2] L turns more than eta 80 deg: it counts
+    shape = midline_shape(S, *_from_angles(phi + bend(0.1 * L, 0.2 * L, -20.0)), L)
+    assert shape.active_length == pytest.approx(0.8 * L, abs=1e-9 * L)
+    assert shape.active_start == pytest.approx(0.1 * L, abs=1e-9 * L)
+
+
+def test_midline_samples_meet_the_requested_spacing():
+    from types import SimpleNamespace
+
+    from magfem.mechanics.observers import MIDLINE_SAMPLES, midline_samples
+
+    arms = [SimpleNamespace(length=0.1), SimpleNamespace(length=0.03)]
+    assert midline_samples(arms) == MIDLINE_SAMPLES
+    assert midline_samples(arms, 0.1e-3) == 1001  # the longest arm: 100 mm / 0.1 mm + 1
+    assert midline_samples(arms, 0.3e-3) == 335  # ceil(333.3) + 1: spacing 0.2994 mm
+    assert midline_samples(arms, 5e-3) == MIDLINE_SAMPLES  # never fewer than the default
+    with pytest.raises(ValueError, match="spacing"):
+        midline_samples(arms, -1e-3)
 
 
 def test_cantilever_under_uniform_torque_active_length():
@@ -100,6 +152,25 @@ def test_cantilever_under_uniform_torque_active_length():
     expected = L - ACTIVE_CURVATURE_FRACTION * (L - H)
     assert expected - H <= shape.active_length <= expected + 1e-12
     assert shape.folds == 0  # the whole arm turns by 0.05/2 rad < 45 deg
+
+
+def test_field_for_90_degrees_is_read_where_the_angle_crosses():
+    from magfem.mechanics.observers import NEAR_90, first_crossing
+
+    # a ramp 0 -> 4 mT along -x, the angle proportional to |B| reaching 89 deg (where the
+    # field for 90 deg is read) at 2.7 mT: interpolation in the angle is exact for a value
+    # linear in it
+    t = np.linspace(0.0, 1.0, 51)
+    b = 4e-3 * t
+    theta = NEAR_90 * b / 2.7e-3
+    history = {"time": t, "angle_arm": theta, "Bx": -b, "By": 0 * b, "Bz": 0 * b}
+    out = summarize_midline(history)
+    assert out["field_90_arm"] == pytest.approx(2.7e-3, rel=1e-12)
+    assert first_crossing(-theta, b, NEAR_90) == pytest.approx(2.7e-3, rel=1e-12)  # either sense
+    assert first_crossing(theta, b) == pytest.approx(2.7e-3 * 90 / 89, rel=1e-12)
+    history["angle_arm"] = 0.5 * theta  # 66 deg at 4 mT: never
+    assert math.isnan(summarize_midline(history)["field_90_arm"])
+    assert "field_90_arm" not in summarize_midline({"time": t, "angle_arm": theta})
 
 
 def test_bending_speed_of_linear_and_sine_rises():
@@ -228,7 +299,8 @@ def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
     """A strip bent into a circular arc from the clamp edge s_b = 1 mm over ℓ = 4 mm, then
     straight: the active length is ℓ (not s_b + ℓ), to one sample spacing h = 0.125 mm
     (the arc's ends fall on samples here; measured 3.999999 mm), and the largest
-    curvature is 1/R."""
+    curvature is 1/R. The bend's start is found from the curvature, so the probe reads ℓ
+    with or without the patch; the patch clips a bend that reaches into it."""
     from dolfinx import fem
 
     from magfem.case import load_case
@@ -236,7 +308,8 @@ def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
     from magfem.geometry.robots import outline_of
     from magfem.mechanics.observers import bonded_length
 
-    case = load_case(repo / "cases" / "active_length.toml", ["mesh.size=0.25mm", "mesh.layers=1"])
+    sets = ["robot.length=10mm", "mesh.size=0.25mm", "mesh.layers=1"]
+    case = load_case(repo / "cases" / "active_length.toml", sets)
     robot = create_robot_mesh(case.robot, case.mesh, comm)
     arm = robot.arms[0]
     root = np.asarray(arm.root)[:2]
@@ -265,7 +338,10 @@ def test_midline_probe_active_length_starts_at_the_bonded_edge(repo, comm):
     from_root = MidlineProbe(V, robot.arms)(u)
     name = f"active_length_{arm.name}"
     assert with_patch[name] == pytest.approx(ell, abs=h)
-    assert from_root[name] - with_patch[name] == pytest.approx(s_b, abs=1e-12)
+    # s_b carries in_clamp's tolerance (1e-6 of the robot's size, 1e-8 m here)
+    assert from_root[name] == pytest.approx(with_patch[name], abs=1e-8)
+    inside = MidlineProbe(V, robot.arms, bonded={arm.name: s_b + 1e-3})(u)
+    assert with_patch[name] - inside[name] == pytest.approx(1e-3, abs=1e-12)
     # the sharpest bend is the arc's 1/R: the segment-angle difference is exact for sample
     # points on an arc, and the P2 interpolant of the map passes through them to 1e-11
     # (measured); 1e-3 leaves room for a coarser interpolant, not for a wrong formula

@@ -141,6 +141,24 @@ def test_report_difference_line_of_a_study_of_resolutions_alone(tmp_path, repo, 
     assert "| [probe](#probe) | predicted | 2/2 | 6 |" in page
 
 
+def test_report_difference_line_names_values_that_a_run_did_not_reach(tmp_path, repo, monkeypatch):
+    """A blank (nan) summary value, such as the field for 90° of a beam that stops short of
+    90°, is named as blank in the difference line, not written as a nan difference."""
+    monkeypatch.chdir(repo)
+    page = _probe_page(
+        tmp_path,
+        'paired = true\nparams = ["time.end=10ms,10ms,20ms,20ms", '
+        '"mesh.size=0.1mm,0.05mm,0.1mm,0.05mm"]\ncompare = ["field_90_arm"]\n'
+        'compare_by = "mesh.size"\n',
+        [{"field_90_arm": v} for v in (math.nan, math.nan, 2.5e-3, math.nan)],
+    )
+    lines = [x for x in page.splitlines() if x.startswith("**Difference**")]
+    assert lines == [
+        "**Difference** (10ms: mesh.size 0.05mm vs 0.1mm): field_90_arm – in both.",
+        "**Difference** (20ms: mesh.size 0.05mm vs 0.1mm): field_90_arm – vs 2.50 mT.",
+    ]
+
+
 def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
     tmp_path, repo, monkeypatch
 ):

@@ -446,6 +446,13 @@ class OutputSpec:
         "multiple of this interval from time.start, at the last step and where the animation "
         "takes a frame (0: every step); contacts and observers with memory still see every step",
     )
+    midline_spacing: float = quantity(
+        0.0,
+        "m",
+        ge=0.0,
+        doc="largest spacing of the arm midline's samples, from which the active length, "
+        "folds, curvature and spread are read (0: 81 samples per arm, L/80 apart)",
+    )
     vtx_every: int = integer(
         10, ge=0, doc="write the displacement to VTX every N steps and at the end (0: never)"
     )

@@ -15,6 +15,7 @@ from magfem.mechanics.observers.arms import (
     bending_angle,
     bonded_length,
     midline_points,
+    midline_samples,
     midline_shape,
 )
 from magfem.mechanics.observers.base import Observer, PointEvaluator
@@ -25,8 +26,10 @@ from magfem.mechanics.observers.strain import Strain, StrainProbe
 from magfem.mechanics.observers.summary import (
     COLLAPSE_FOLDS,
     COLLAPSE_TIP_NORMAL,
+    NEAR_90,
     PARTIAL_SPREAD,
     bending_speed,
+    first_crossing,
     history_summary,
     max_over_window,
     summarize_midline,
@@ -40,6 +43,7 @@ __all__ = [
     "CURVATURE_FLOOR",
     "FOLD_ANGLE",
     "MIDLINE_SAMPLES",
+    "NEAR_90",
     "PARTIAL_SPREAD",
     "TIP_OFFSET",
     "AngleUnwrapper",
@@ -59,9 +63,11 @@ __all__ = [
     "bending_angle",
     "bending_speed",
     "bonded_length",
+    "first_crossing",
     "history_summary",
     "max_over_window",
     "midline_points",
+    "midline_samples",
     "midline_shape",
     "summarize_body",
     "summarize_midline",

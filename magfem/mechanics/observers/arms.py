@@ -12,7 +12,8 @@ Definitions (after Wang, Mao et al., Commun. Mater. 1, 67 (2020)):
   tangent of a P2 field). θ is unwrapped in time (:class:`AngleUnwrapper`),
   so it passes 90°, 180° and 270° continuously.
 * **Midline shape** of an arm (:class:`MidlineProbe`, :func:`midline_shape`):
-  the deformed midline is sampled at ``MIDLINE_SAMPLES`` equally spaced
+  the deformed midline is sampled at N = ``MIDLINE_SAMPLES`` (or more, when
+  ``[output] midline_spacing`` asks for closer samples) equally spaced
   reference points X_k = root + s_k e, s_k = k h, h = L/(N − 1), and written
   in the arm's side frame relative to the reference root: a_k = (x_k −
   root)·e along the arm, w_k = (x_k − root)·n normal to it (n the resting
@@ -24,16 +25,22 @@ Definitions (after Wang, Mao et al., Commun. Mater. 1, 67 (2020)):
   κ* = max(η max_k |κ_k|, κ_floor/L), η = ``ACTIVE_CURVATURE_FRACTION`` = 0.1,
   κ_floor = ``CURVATURE_FLOOR`` = 10⁻³ rad:
 
-  - **active length** L_a = s of the last sample with |κ_k| ≥ κ* (0 when
-    none): the arc length from the root to where the arm stops bending and
-    runs straight. :class:`MidlineProbe` reports it from the end of the
-    bonded patch, L_a − s_b (s_b the midline length over the clamp, see
-    :func:`bonded_length`; 0 if L_a ≤ s_b): the deformed part of the arm,
-    not counting the glued strip it starts on. A circular arc over [0, ℓ]
-    followed by a straight part gives ℓ to within h; a small-deflection
-    cantilever under a uniform distributed torque (κ ∝ L − s) gives (1 − η) L.
-  - **folds**: the number of maximal runs of consecutive samples with
-    |κ_k| ≥ κ* and one sign of κ that turn the tangent by at least
+  - **active length** L_a = s_last − s_first, the arc length of the bent
+    part. Consecutive samples with |κ_k| ≥ κ* and one sign of κ form a bent
+    run; the runs that turn the tangent by at least η times the largest
+    run's turn count (a bonded edge's slight kink does not), s_first is the
+    first sample of the first (the root, s_0 = 0, when it is the first
+    interior sample s_1) and s_last the last sample of the last; 0 when none
+    bends. An arm bent from its root runs straight beyond s_last; a long
+    arm lying on the ground that lifts its tip bends only around where it
+    leaves the ground, and L_a is that bend, not the flat part before it.
+    :class:`MidlineProbe` does not count the bonded patch: it reports
+    s_last − max(s_first, s_b) (s_b the midline length over the clamp, see
+    :func:`bonded_length`; 0 if s_last ≤ s_b). A circular arc over [a, b]
+    with straight parts on either side gives b − a to within h; a
+    small-deflection cantilever under a uniform distributed torque
+    (κ ∝ L − s) gives (1 − η) L.
+  - **folds**: the number of bent runs that turn the tangent by at least
     ``FOLD_ANGLE`` = 45° (|Σ κ_k h| ≥ 45°). An arm bent at its root is one
     fold; an S or a second crease is two; a straight arm in any rigid
     rotation is zero. Collapse when > 1.
@@ -75,6 +82,7 @@ __all__ = [
     "bending_angle",
     "bonded_length",
     "midline_points",
+    "midline_samples",
     "midline_shape",
 ]
 
@@ -146,6 +154,19 @@ def midline_points(arm: Arm, samples: int = MIDLINE_SAMPLES) -> npt.NDArray[np.f
     return root[None, :] + s[:, None] * e[None, :]
 
 
+def midline_samples(arms: Sequence[Arm], spacing: float = 0.0) -> int:
+    """Samples per arm so that no arm's midline samples are farther apart than ``spacing`` (m).
+
+    At least ``MIDLINE_SAMPLES``; ``spacing`` 0 gives exactly that.
+    """
+    if spacing < 0.0 or not math.isfinite(spacing):
+        raise ValueError(f"midline sample spacing must be >= 0 and finite, got {spacing!r} m")
+    if spacing == 0.0 or not arms:
+        return MIDLINE_SAMPLES
+    longest = max(float(a.length) for a in arms)
+    return max(MIDLINE_SAMPLES, math.ceil(longest / spacing - 1e-9) + 1)
+
+
 def bonded_length(arm: Arm, in_clamp: Any, offset: Sequence[float], gdim: int) -> float:
     """Length (m) of the arm's midline, from its root, that lies over the bonded patch.
 
@@ -193,6 +214,7 @@ class MidlineShape(NamedTuple):
         tip_normal: |w_tip|/L (dimensionless).
         spread: std(w)/L (dimensionless).
         max_curvature: max_k |κ_k| (1/m), the sharpest bend of the midline.
+        active_start: s_first (m), where the bent part begins.
     """
 
     active_length: float
@@ -200,6 +222,27 @@ class MidlineShape(NamedTuple):
     tip_normal: float
     spread: float
     max_curvature: float = 0.0
+    active_start: float = 0.0
+
+
+def _bent_runs(
+    kappa: npt.NDArray[np.float64], bent: npt.NDArray[np.bool_], h: float
+) -> list[tuple[int, int, float]]:
+    """Maximal runs of bent interior samples of one curvature sign: (first, last, turn (rad))."""
+    runs: list[tuple[int, int, float]] = []
+    start, turn, sign = 0, 0.0, 0.0
+    for k in range(kappa.size + 1):  # k == size closes the last run
+        inside = k < kappa.size and bool(bent[k])
+        ksign = float(np.sign(kappa[k])) if inside else 0.0
+        if sign != 0.0 and ksign != sign:  # the current run ends at k - 1
+            runs.append((start, k - 1, turn))
+            turn, sign = 0.0, 0.0
+        if inside:
+            if sign == 0.0:
+                start = k
+            sign = ksign
+            turn += float(kappa[k]) * h
+    return runs
 
 
 def midline_shape(
@@ -230,21 +273,18 @@ def midline_shape(
     kmax = float(np.max(np.abs(kappa))) if kappa.size else 0.0
     threshold = max(ACTIVE_CURVATURE_FRACTION * kmax, CURVATURE_FLOOR / length)
     bent = np.abs(kappa) >= threshold
-    active = float(s[1:-1][bent][-1]) if np.any(bent) else 0.0
-    folds = 0
-    turn = 0.0
-    sign = 0.0
-    for k in range(kappa.size + 1):  # one pass over runs; k == size closes the last run
-        inside = k < kappa.size and bool(bent[k])
-        ksign = float(np.sign(kappa[k])) if inside else 0.0
-        if sign != 0.0 and ksign != sign:  # the current run ends here
-            folds += int(abs(turn) >= FOLD_ANGLE)
-            turn, sign = 0.0, 0.0
-        if inside:
-            sign = ksign
-            turn += float(kappa[k]) * h
+    runs = _bent_runs(kappa, bent, h)
+    folds = sum(abs(turn) >= FOLD_ANGLE for _, _, turn in runs)
+    largest = max((abs(turn) for _, _, turn in runs), default=0.0)
+    spans = [(i, j) for i, j, turn in runs if abs(turn) >= ACTIVE_CURVATURE_FRACTION * largest]
+    first = last = 0.0
+    if spans:  # interior sample k is s[k + 1]; a bend from s_1 starts at the root
+        first = 0.0 if spans[0][0] == 0 else float(s[1 + spans[0][0]])
+        last = float(s[1 + spans[-1][1]])
+    active = last - first
     return MidlineShape(
         active_length=active,
+        active_start=first,
         folds=folds,
         tip_normal=abs(float(w[-1])) / length,
         spread=float(np.std(w)) / length,
@@ -296,8 +336,9 @@ class MidlineProbe:
             normal = xi[:, 2] if self.gdim == 3 else xi[:, 1]
             s = np.linspace(0.0, arm.length * (1.0 - 1e-9), n)
             shape = midline_shape(s, along, normal, arm.length)
-            start = self.bonded.get(arm.name, 0.0)
-            row[f"active_length_{arm.name}"] = max(shape.active_length - start, 0.0)
+            end = shape.active_start + shape.active_length
+            start = max(shape.active_start, self.bonded.get(arm.name, 0.0))
+            row[f"active_length_{arm.name}"] = max(end - start, 0.0)
             row[f"folds_{arm.name}"] = float(shape.folds)
             row[f"tip_normal_{arm.name}"] = shape.tip_normal
             row[f"spread_{arm.name}"] = shape.spread
@@ -356,6 +397,8 @@ class Midline(Observer):
         arms: the robot's arms.
         thickness: membrane thickness h (m).
         bonded: arm name -> midline length over the bonded patch (m).
+        spacing: largest reference spacing of the midline samples (m); 0 keeps
+            ``MIDLINE_SAMPLES`` per arm (L/80).
     """
 
     def __init__(
@@ -364,10 +407,12 @@ class Midline(Observer):
         arms: Sequence[Arm],
         thickness: float,
         bonded: dict[str, float] | None = None,
+        spacing: float = 0.0,
     ):
         self.u = u
         self.thickness = thickness
-        self.probe = MidlineProbe(u.function_space, arms, bonded=bonded)
+        samples = midline_samples(arms, spacing)
+        self.probe = MidlineProbe(u.function_space, arms, samples=samples, bonded=bonded)
 
     def columns(self) -> list[str]:
         return [*self.probe.columns(), "bending_strain"]

@@ -23,14 +23,20 @@ from magfem.mechanics.observers.swimming import summarize_swimming
 __all__ = [
     "COLLAPSE_FOLDS",
     "COLLAPSE_TIP_NORMAL",
+    "NEAR_90",
     "PARTIAL_SPREAD",
     "bending_speed",
+    "first_crossing",
     "history_summary",
     "max_over_window",
     "summarize_cargo",
     "summarize_midline",
 ]
 
+_FIELD = ("Bx", "By", "Bz")
+NEAR_90 = math.radians(89.0)
+"""Angle at which ``field_90_<arm>`` is read: a tip approaches 90° only asymptotically (the
+couple m × B vanishes as its normal turns into the field), so 90° itself is never reached."""
 COLLAPSE_TIP_NORMAL = 0.2
 """|w_tip|/L above which an arm has collapsed."""
 COLLAPSE_FOLDS = 1
@@ -73,12 +79,36 @@ def bending_speed(
     return (stop - start) / (t_stop - t_start) if t_stop > t_start else math.nan
 
 
+def first_crossing(
+    angles: npt.NDArray[np.float64], values: npt.NDArray[np.float64], stop: float = math.pi / 2
+) -> float:
+    """``values`` at the first instant |angle| reaches ``stop``, interpolated linearly in the
+    angle between the two samples around it (nan when it never does).
+
+    Args:
+        angles: (N,) rad (unwrapped). values: (N,) any quantity sampled with them.
+    """
+    th = np.abs(np.asarray(angles, dtype=float))
+    v = np.asarray(values, dtype=float)
+    up = np.flatnonzero(th >= stop)
+    if up.size == 0:
+        return math.nan
+    j = int(up[0])
+    if j == 0:
+        return float(v[0])
+    return float(v[j - 1] + (stop - th[j - 1]) * (v[j] - v[j - 1]) / (th[j] - th[j - 1]))
+
+
 def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
     """Summary entries of the midline and speed observables from a run's history columns.
 
     Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
     ``max_folds_<arm>``, ``max_tip_normal_<arm>``, ``max_spread_<arm>``,
-    ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached); and, when
+    ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached),
+    ``field_90_<arm>`` (T, the field needed for 90°: the applied field's
+    magnitude |B| at the first instant the arm reaches ``NEAR_90`` = 89°,
+    :func:`first_crossing`; nan if it never does, absent without the ``Bx``,
+    ``By``, ``Bz`` columns); and, when
     any arm has midline columns, ``collapse`` (1.0 if an arm's max tip normal
     displacement exceeds 0.2 or its folds exceed 1, else 0.0) and
     ``partial_bending`` (1.0 if an arm's max spread exceeds 0.1).
@@ -91,6 +121,11 @@ def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[st
         if key.startswith("angle_"):
             arm = key[len("angle_") :]
             out[f"bending_speed_{arm}"] = bending_speed(t, history[key])
+            if all(c in history for c in _FIELD):
+                field = np.linalg.norm(
+                    [np.asarray(history[c], dtype=float) for c in _FIELD], axis=0
+                )
+                out[f"field_90_{arm}"] = first_crossing(history[key], field, NEAR_90)
         if not key.startswith("active_length_"):
             continue
         have = True
