@@ -135,6 +135,42 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     assert (out / "sweep.log").read_text().count(" start ") == starts
 
 
+@pytest.mark.serial
+def test_a_stopped_point_continues_from_its_checkpoint(tmp_path):
+    """A point whose run stopped at 1 ms of 2 ms with a checkpoint (as a signal or the
+    checkpoint interval leaves it) continues from there: its history equals an uninterrupted
+    point's bit for bit (the generalized-alpha state is restored exactly). A checkpoint that
+    does not continue the point's case (here another Newton tolerance) is refused, and the
+    point runs afresh to the same history."""
+    import numpy as np
+
+    from magfem.mechanics.columns import read_history
+    from magfem.sweep import run_sweep
+
+    case = _case_file(tmp_path)
+    params = ["field.sources.0.waveform.frequency=100Hz"]
+    run_sweep(case, params, tmp_path / "ref", echo=None)
+    (ref_dir,) = (tmp_path / "ref" / "points").iterdir()
+    reference = read_history(ref_dir / "history.csv")[0]
+    (point,) = build_points([parse_param(p) for p in params], fingerprint(case, ()))
+    for extra, word in ((), "resume"), (("solver.rtol=1e-7",), "refused"):
+        out = tmp_path / word
+        pdir = out / "points" / point.ident
+        sets = [*point.overrides(), "time.end=1ms", "output.checkpoint_every=4", *extra]
+        cmd = ["run", str(case), "--out", str(pdir), "-q"]
+        assert main([*cmd, *(a for item in sets for a in ("--set", item))]) == 0
+        assert (pdir / "checkpoint" / "meta.json").is_file()
+        result = run_sweep(case, params, out, echo=None)
+        assert result.records[0]["status"] == "done"
+        log = (out / "sweep.log").read_text()
+        assert f"resume {point.ident} from its checkpoint" in log
+        assert ("refused " in log) == (word == "refused")
+        history = read_history(pdir / "history.csv")[0]
+        assert history["time"][-1] == pytest.approx(2e-3)
+        for key, column in reference.items():
+            np.testing.assert_array_equal(history[key], column, err_msg=key)
+
+
 def test_history_summary_reads_first_self_touch(tmp_path):
     """First self-touch = time of the first sample with a positive self-contact force."""
     from magfem.sweep import summarize_history

@@ -22,7 +22,9 @@ array gives directly (Dask workers would hold cores between points):
 
 The job itself writes ``point.json``, so a point that a cluster finished is
 kept even if the driver was stopped meanwhile; resuming works as for local
-sweeps. submitit's own files (job scripts, logs) go to ``DIR/submitit/``.
+sweeps. A point whose run was stopped or killed continues from the
+checkpoint it left (:func:`attempts`), on either engine. submitit's own files
+(job scripts, logs) go to ``DIR/submitit/``.
 """
 
 from __future__ import annotations
@@ -34,12 +36,22 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from magfem.config import CaseError
+from magfem.errors import EXIT_INPUT
+from magfem.rundir import CHECKPOINT
 from magfem.sweep.summary import summarize_history
 
-__all__ = ["CLUSTER_ENGINES", "ENGINES", "PointJob", "parse_engine_options", "run_point"]
+__all__ = [
+    "CLUSTER_ENGINES",
+    "ENGINES",
+    "PointJob",
+    "attempts",
+    "parse_engine_options",
+    "run_attempts",
+    "run_point",
+]
 
 ENGINES = ("local", "slurm", "submitit-local")
 CLUSTER_ENGINES = ("slurm", "submitit-local")
@@ -98,13 +110,58 @@ def record_point(job: PointJob, returncode: int, wall: float) -> str | None:
     return status
 
 
+def attempts(job: PointJob) -> list[list[str]]:
+    """The commands that run a point, in order: the point continues from its checkpoint
+    when a stopped or killed run left one (``magfem run --resume``: a point's folder is
+    named by its parameters and base case, so the checkpoint is of the same run), then the
+    fresh run, tried only when the resume is refused (exit status ``EXIT_INPUT``, e.g. the
+    checkpoint was written by another number of ranks). A point recorded as failed (rerun
+    by ``--retry-failed``) starts afresh."""
+    pdir = Path(job.point_dir)
+    left = not (pdir / "point.json").exists() and any(
+        (pdir / name / "meta.json").is_file() for name in (CHECKPOINT, f"{CHECKPOINT}.old")
+    )
+    if not left:
+        return [job.command]
+    i = job.command.index("--out")
+    resume = [*job.command[:i], "--resume", job.point_dir]
+    resume += [a for a in job.command[i + 2 :] if a != "--overwrite"]
+    return [resume, job.command]
+
+
+def run_attempts(
+    job: PointJob,
+    start: Callable[[list[str], BinaryIO], int],
+    log: Callable[[str], None] | None = None,
+) -> int:
+    """Run the point's :func:`attempts` with ``start(command, log file) -> exit status`` until
+    one is not a refused resume; its exit status. ``run.log`` keeps the stopped run's lines
+    when the point continues."""
+    commands = attempts(job)
+    returncode = EXIT_INPUT
+    for k, command in enumerate(commands):
+        resuming = k < len(commands) - 1
+        if resuming and log:
+            log(f"resume {job.ident} from its checkpoint")
+        with (Path(job.point_dir) / "run.log").open("ab" if resuming else "wb") as fh:
+            returncode = start(command, fh)
+        if not (resuming and returncode == EXIT_INPUT):
+            break
+        if log:
+            log(f"refused {job.ident}: its checkpoint does not continue (run.log); fresh run")
+    return returncode
+
+
 def run_point(job: PointJob) -> str | None:
     """Run one point's process (its output in ``run.log``) and record it (:func:`record_point`)."""
     pdir = Path(job.point_dir)
     pdir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    with (pdir / "run.log").open("wb") as fh:
-        returncode = subprocess.run(job.command, stdout=fh, stderr=subprocess.STDOUT).returncode
+
+    def start(command: list[str], fh: BinaryIO) -> int:
+        return subprocess.run(command, stdout=fh, stderr=subprocess.STDOUT).returncode
+
+    returncode = run_attempts(job, start)
     return record_point(job, returncode, time.perf_counter() - t0)
 
 

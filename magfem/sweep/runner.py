@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from magfem.case import load_case
 from magfem.config import CaseError
@@ -21,6 +21,7 @@ from magfem.sweep.engines import (
     ENGINES,
     PointJob,
     record_point,
+    run_attempts,
     run_on_cluster,
 )
 from magfem.sweep.points import SYNTAX, Point, build_points, fingerprint, parse_param
@@ -118,13 +119,17 @@ class _LocalRunner:
         pdir.mkdir(parents=True, exist_ok=True)
         self.log(f"start {job.ident} {json.dumps(job.params)}")
         t0 = time.perf_counter()
-        with (pdir / "run.log").open("wb") as fh:
-            proc = subprocess.Popen(job.command, stdout=fh, stderr=subprocess.STDOUT)
+
+        def start(command: list[str], fh: BinaryIO) -> int:
+            proc = subprocess.Popen(command, stdout=fh, stderr=subprocess.STDOUT)
             with self.lock:
                 self.procs[job.ident] = proc
             rc = proc.wait()
             with self.lock:
                 self.procs.pop(job.ident, None)
+            return rc
+
+        rc = run_attempts(job, start, self.log)
         wall = time.perf_counter() - t0
         status = record_point(job, rc, wall)
         if status is None:  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
