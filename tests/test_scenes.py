@@ -82,7 +82,7 @@ SCENES: dict[str, list[str]] = {
         "2mm", "2ms", "0.5ms", "mesh.size_across=2mm", "solver.degree=2"
     ),
     "active_length": _tiny("1mm", "0.2s", "0.05s", *STRIP),
-    "failure": _tiny("2.5mm", "2ms", "0.5ms"),
+    "failure": _tiny("2.5mm", "2ms", "0.5ms", "mesh.size_across=2.5mm", "solver.degree=2"),
     "bow_tie": _tiny("1mm", "2ms", "0.5ms", "mesh.size_across=1mm", "solver.degree=2", *NO_GROUND),
     "self_clean": _tiny("0.5mm", "3ms", "0.5ms", *STRIP),
 }
