@@ -53,7 +53,7 @@ from magfem.provenance import provenance
 from magfem.report import build_report
 from magfem.rundir import prepare_run_directory
 from magfem.sanity import implausible
-from magfem.signals import StopSignals
+from magfem.signals import DriverSignals, StopSignals
 from magfem.sweep import parse_engine_options, parse_param, run_sweep
 
 __all__ = ["main"]
@@ -435,11 +435,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     configure_logging(comm, level)
     failures = comm.Dup()
     # a run stops at the end of a step on SIGINT/SIGTERM, check/mesh/field at once; sweep and
-    # report keep Python's KeyboardInterrupt, on which they stop the runs they started
+    # report stop the runs they started on KeyboardInterrupt, which SIGTERM raises there too
     with contextlib.ExitStack() as stack:
         stop = StopSignals(immediate=args.command != "run")
-        if args.command not in _DRIVERS:
-            stack.enter_context(stop)
+        stack.enter_context(DriverSignals() if args.command in _DRIVERS else stop)
         try:
             status = _dispatch(args, comm, stop)
         except BaseException as err:  # every failure: one line and its status, on every rank

@@ -47,6 +47,7 @@ __all__ = [
     "EXIT_IO",
     "EXIT_SOLVER",
     "RunInterrupted",
+    "Terminated",
     "describe",
     "end_with",
 ]
@@ -60,6 +61,11 @@ EXIT_INTERNAL = 70
 AGREE_TIMEOUT = float(os.environ.get("MAGFEM_FAILURE_TIMEOUT", "10"))
 """Seconds the failed ranks of a job wait for each other before a rank ends alone
 (environment variable ``MAGFEM_FAILURE_TIMEOUT``, default 10)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received by a driver (sweep, report): handled as Ctrl-C, exit status 143
+    (:class:`magfem.signals.DriverSignals`)."""
 
 
 class RunInterrupted(Exception):
@@ -93,6 +99,11 @@ def describe(err: BaseException) -> tuple[int, str]:
     if isinstance(err, RunInterrupted):
         name = signal.Signals(err.signum).name
         return err.exit_code, f"magfem: stopped by {name}: {_one_line(err.message)}"
+    if isinstance(err, Terminated):
+        return 128 + signal.SIGTERM, (
+            "magfem: stopped by SIGTERM: the runs it started were stopped at their checkpoints; "
+            "the same command continues them"
+        )
     if isinstance(err, KeyboardInterrupt):
         return 128 + signal.SIGINT, "magfem: interrupted (SIGINT); nothing to resume"
     if isinstance(err, CaseError):

@@ -20,6 +20,12 @@ then ends the process as it would end any program, and a closed pipe is a
 
 With ``immediate=True`` (commands without a time loop: mesh, field) the
 first signal raises :class:`magfem.errors.RunInterrupted` at once.
+
+The commands that start runs (sweep, report) use :class:`DriverSignals`
+instead: PETSc's handlers off, and SIGTERM raises :class:`Terminated`, a
+``KeyboardInterrupt``, so that a driver stopped by ``kill`` or a batch system
+stops the runs it started (each writes its checkpoint) as on Ctrl-C, rather
+than leaving them running without it.
 """
 
 from __future__ import annotations
@@ -33,9 +39,9 @@ from typing import Any
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from magfem.errors import RunInterrupted
+from magfem.errors import RunInterrupted, Terminated
 
-__all__ = ["STOP_SIGNALS", "StopSignals"]
+__all__ = ["STOP_SIGNALS", "DriverSignals", "StopSignals", "restore_handlers"]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -78,3 +84,41 @@ class StopSignals:
     def agreed(self, comm: MPI.Comm) -> int:
         """The signal any rank of ``comm`` received (0: none), identical on all (collective)."""
         return int(comm.allreduce(self.received, op=MPI.MAX))
+
+
+class DriverSignals:
+    """Context manager of the drivers: SIGTERM raises :class:`Terminated` (module docstring)."""
+
+    def __init__(self) -> None:
+        self._previous: Any = None
+
+    def __enter__(self) -> DriverSignals:
+        PETSc.Sys.popSignalHandler()
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGTERM, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGTERM, self._previous)
+            self._previous = None
+
+    @staticmethod
+    def _handle(signum: int, frame: FrameType | None) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a second SIGTERM ends the driver at once
+        raise Terminated()
+
+
+def restore_handlers() -> None:
+    """Register Python's SIGINT and SIGTERM handlers with the operating system again.
+
+    gmsh's initialisation sets SIGTERM back to its default action in the C library while
+    Python still reports its own handler: a ``kill`` would then end a run at once, without
+    its checkpoint. Called after gmsh starts (main thread only; elsewhere a no-op).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in STOP_SIGNALS:
+        handler = signal.getsignal(signum)
+        if handler is not None:
+            signal.signal(signum, handler)

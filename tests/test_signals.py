@@ -137,6 +137,19 @@ def test_sigint_stops_a_serial_run_with_a_checkpoint_and_resume_finishes_it(tmp_
 
 @pytest.mark.slow
 @pytest.mark.serial
+def test_sigterm_stops_a_serial_run_with_a_checkpoint(tmp_path):
+    """``kill`` on a serial run (the process that meshes with gmsh, whose initialisation
+    resets SIGTERM to its default action in the C library: the run ended at once, without a
+    checkpoint, until magfem registered its handler again)."""
+    case = _case_file(tmp_path)
+    out = tmp_path / "out"
+    cmd = [str(BIN / "magfem"), "run", str(case), "--out", str(out), "-q"]
+    done = _signal_when_stepping(cmd, out, signal.SIGTERM)
+    _check_stopped(done, out, signal.SIGTERM, ranks=1)
+
+
+@pytest.mark.slow
+@pytest.mark.serial
 def test_sigterm_to_one_rank_stops_both_ranks_at_the_same_step(tmp_path):
     """A batch system's SIGTERM to the ranks (here: to one of two) stops the job at the end of
     a step. (MPICH's mpiexec ends its ranks at once on a SIGTERM of its own; it forwards SIGINT.)

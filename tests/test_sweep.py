@@ -135,6 +135,47 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path):
     assert (out / "sweep.log").read_text().count(" start ") == starts
 
 
+@pytest.mark.slow
+@pytest.mark.serial
+def test_sigterm_to_a_sweep_stops_its_point_at_a_checkpoint_that_the_rerun_continues(tmp_path):
+    """``kill`` (SIGTERM) on the sweep's driver: the driver stops the point it started, which
+    writes its checkpoint, and exits with 143 (PETSc's own handler would abort the driver and
+    leave the point running); the same command then continues the point from its checkpoint
+    and finishes it."""
+    case = _case_file(tmp_path)
+    out = tmp_path / "sweep"
+    cmd = [sys.executable, "-m", "magfem", "sweep", str(case), "--out", str(out), "-q"]
+    # ~600 steps (the square wave's switches take small steps): long enough to be caught
+    cmd += ["--param", "field.sources.0.waveform.frequency=100Hz", "--set", "time.end=50ms"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 240
+
+    def rows() -> int:
+        found = list(out.glob("points/*/history.csv"))
+        return len(found[0].read_text().splitlines()) if found else 0
+
+    try:
+        while rows() < 20:  # inside the time loop
+            assert proc.poll() is None, "sweep ended before its point's time loop"
+            assert time.monotonic() < deadline, "the point's time loop did not start in 240 s"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, err.decode()
+    assert "stopped by SIGTERM" in err.decode()
+    (pdir,) = (out / "points").iterdir()
+    assert (pdir / "checkpoint" / "meta.json").is_file()
+    assert not (pdir / "point.json").exists()
+    assert main(cmd[3:]) == 0
+    log = (out / "sweep.log").read_text()
+    assert f"resume {pdir.name} from its checkpoint" in log
+    summary = _summary(out / "summary.csv")
+    assert summary[0]["status"] == "done" and float(summary[0]["end_time"]) == pytest.approx(0.05)
+
+
 @pytest.mark.serial
 def test_a_stopped_point_continues_from_its_checkpoint(tmp_path):
     """A point whose run stopped at 1 ms of 2 ms with a checkpoint (as a signal or the

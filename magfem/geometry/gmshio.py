@@ -19,6 +19,8 @@ from dolfinx import mesh as dmesh
 from dolfinx.io import gmsh as gmshio
 from mpi4py import MPI
 
+from magfem.signals import restore_handlers
+
 __all__ = ["GmshError", "build_mesh"]
 
 
@@ -67,6 +69,7 @@ def build_mesh(
         initialized_here = not gmsh.isInitialized()
         if initialized_here:
             gmsh.initialize(interruptible=False)
+            restore_handlers()  # gmsh resets SIGTERM in the C library
         # options are global to the gmsh session: a robot's Mesh.MeshSizeMax of
         # 0.5 mm must not leak into the next model (a 0.3 m air region meshed at
         # 0.5 mm took minutes and 6 GB), so every model starts from the defaults
