@@ -207,6 +207,9 @@ def test_summary_flags_collapse_and_partial_bending():
     assert summarize_midline(lifted)["collapse"] == 1.0
     spread = quiet | {"spread_arm": np.array([0.0, 0.2, 0.0])}
     assert summarize_midline(spread)["partial_bending"] == 1.0
+    assert "max_tip_lateral_arm" not in out  # a strip's history has no sideways column
+    side = quiet | {"tip_lateral_arm": np.array([0.0, 0.4, 0.1])}
+    assert summarize_midline(side)["max_tip_lateral_arm"] == 0.4
 
 
 def test_midline_probe_on_a_strip_rigid_rotation(repo, comm):
@@ -270,6 +273,41 @@ def test_run_writes_a_motion_gif(repo, shared_tmp, comm):
     body = [f[60:] for f in frames]
     changed = np.mean(np.abs(body[-1] - body[0]) > 10)
     assert changed > 1e-3
+
+
+def test_midline_probe_reads_a_sideways_turn_as_tip_lateral(repo, comm):
+    """A 3D arm turned rigidly by 30° about the vertical through its root (in the resting
+    plane, as an arm that falls over sideways ends): its tip moves sideways by sin 30° of its
+    length and not out of the plane; P2 holds the rotation exactly."""
+    from dolfinx import fem
+
+    from magfem.case import load_case
+    from magfem.geometry.robot_mesh import create_robot_mesh
+
+    sets = ["mesh.size=2mm", "mesh.size_across=2mm", "mesh.layers=1"]
+    case = load_case(repo / "cases" / "one_arm_shapes_triangle.toml", sets)
+    robot = create_robot_mesh(case.robot, case.mesh, comm)
+    assert robot.mesh.geometry.dim == 3
+    V = fem.functionspace(robot.mesh, ("Lagrange", 2, (3,)))
+    arm = robot.arms[0]
+    root = np.asarray(arm.root, dtype=float)
+    alpha = math.radians(30)
+    rot = np.array(
+        [[math.cos(alpha), -math.sin(alpha), 0], [math.sin(alpha), math.cos(alpha), 0], [0, 0, 1]]
+    )
+
+    def yaw(x):
+        d = x - root[:, None]
+        return rot @ d - d
+
+    u = fem.Function(V)
+    u.interpolate(yaw)
+    probe = MidlineProbe(V, robot.arms)
+    row = probe(u)
+    assert row[f"tip_lateral_{arm.name}"] == pytest.approx(math.sin(alpha) * (1 - 1e-9), rel=1e-9)
+    assert row[f"tip_normal_{arm.name}"] == pytest.approx(0.0, abs=1e-12)
+    assert row[f"folds_{arm.name}"] == 0.0
+    assert set(probe.columns()) == set(row)
 
 
 @pytest.mark.parametrize(

@@ -27,7 +27,7 @@ UNITS: tuple[tuple[str, str], ...] = (
     (r"B[xyz]", "T"),
     (r"energy_density", "J/m^3"),
     (r"energy_.+|self_contact_absorbed", "J"),
-    (r"strain|bending_strain|tip_normal_.+|spread_.+", "1"),
+    (r"strain|bending_strain|tip_normal_.+|tip_lateral_.+|spread_.+", "1"),
     (r"active_length_.+|self_contact_penetration|self_contact_[xyz]", "m"),
     (r"curvature_.+", "1/m"),
     (r"contact_force|friction_force|self_contact_force(_.+)?|obstacle_.+_[xyz]", "N"),

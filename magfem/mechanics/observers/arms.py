@@ -302,7 +302,9 @@ class MidlineProbe:
 
     Calling it with the displacement returns the CSV columns of
     :meth:`columns` (``active_length_<arm>`` in m, ``folds_<arm>``,
-    ``tip_normal_<arm>``, ``spread_<arm>``), identical on every rank.
+    ``tip_normal_<arm>``, ``spread_<arm>``, ``curvature_<arm>`` and, in 3D,
+    ``tip_lateral_<arm>``: the tip's sideways displacement, across the arm in
+    the resting plane, over L), identical on every rank.
     """
 
     def __init__(
@@ -320,8 +322,9 @@ class MidlineProbe:
         self.evaluator = PointEvaluator(function_space, self.points)
 
     def columns(self) -> list[str]:
-        """CSV column names."""
+        """CSV column names (``tip_lateral_<arm>`` in 3D only: a strip has no side)."""
         keys = ("active_length", "folds", "tip_normal", "spread", "curvature")
+        keys += ("tip_lateral",) if self.gdim == 3 else ()
         return [f"{k}_{a.name}" for a in self.arms for k in keys]
 
     def __call__(self, u: fem.Function) -> dict[str, float]:
@@ -343,6 +346,9 @@ class MidlineProbe:
             row[f"tip_normal_{arm.name}"] = shape.tip_normal
             row[f"spread_{arm.name}"] = shape.spread
             row[f"curvature_{arm.name}"] = shape.max_curvature
+            if self.gdim == 3:  # sideways: along n x e, in the resting plane across the arm
+                side = np.array([-e[1], e[0], 0.0]) / max(math.hypot(e[0], e[1]), 1e-300)
+                row[f"tip_lateral_{arm.name}"] = abs(float(xi[-1] @ side)) / arm.length
         return row
 
 

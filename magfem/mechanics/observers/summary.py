@@ -104,6 +104,7 @@ def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[st
 
     Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
     ``max_folds_<arm>``, ``max_tip_normal_<arm>``, ``max_spread_<arm>``,
+    ``max_tip_lateral_<arm>`` (3D),
     ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached),
     ``field_90_<arm>`` (T, the field needed for 90°: the applied field's
     magnitude |B| at the first instant the arm reaches ``NEAR_90`` = 89°,
@@ -136,6 +137,8 @@ def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[st
         spread = float(np.nanmax(history[f"spread_{arm}"]))
         out[f"max_folds_{arm}"], out[f"max_tip_normal_{arm}"] = folds, tip
         out[f"max_spread_{arm}"] = spread
+        if f"tip_lateral_{arm}" in history:
+            out[f"max_tip_lateral_{arm}"] = float(np.nanmax(history[f"tip_lateral_{arm}"]))
         collapse |= tip > COLLAPSE_TIP_NORMAL or folds > COLLAPSE_FOLDS
         partial |= spread > PARTIAL_SPREAD
     if have:
