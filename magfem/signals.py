@@ -18,6 +18,10 @@ removed when a command starts (``PetscPopSignalHandler``, what the option
 then ends the process as it would end any program, and a closed pipe is a
 ``BrokenPipeError``.
 
+gmsh's initialisation sets SIGINT and SIGTERM back to their default action
+in the C library; :mod:`magfem.geometry.gmshio` registers Python's handlers
+again after it.
+
 With ``immediate=True`` (commands without a time loop: mesh, field) the
 first signal raises :class:`magfem.errors.RunInterrupted` at once.
 
@@ -41,7 +45,7 @@ from petsc4py import PETSc
 
 from magfem.errors import RunInterrupted, Terminated
 
-__all__ = ["STOP_SIGNALS", "DriverSignals", "StopSignals", "restore_handlers"]
+__all__ = ["STOP_SIGNALS", "DriverSignals", "StopSignals"]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -107,18 +111,3 @@ class DriverSignals:
     def _handle(signum: int, frame: FrameType | None) -> None:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a second SIGTERM ends the driver at once
         raise Terminated()
-
-
-def restore_handlers() -> None:
-    """Register Python's SIGINT and SIGTERM handlers with the operating system again.
-
-    gmsh's initialisation sets SIGTERM back to its default action in the C library while
-    Python still reports its own handler: a ``kill`` would then end a run at once, without
-    its checkpoint. Called after gmsh starts (main thread only; elsewhere a no-op).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        return
-    for signum in STOP_SIGNALS:
-        handler = signal.getsignal(signum)
-        if handler is not None:
-            signal.signal(signum, handler)

@@ -9,6 +9,8 @@ name; regions are looked up by those names, never by integer tags.
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,8 +20,6 @@ from dolfinx import graph
 from dolfinx import mesh as dmesh
 from dolfinx.io import gmsh as gmshio
 from mpi4py import MPI
-
-from magfem.signals import restore_handlers
 
 __all__ = ["GmshError", "build_mesh"]
 
@@ -36,6 +36,21 @@ class GmshError(RuntimeError):
         super().__init__(message)
         self.cause = cause
         self.detail = detail
+
+
+def _restore_signal_handlers() -> None:
+    """Register Python's SIGINT and SIGTERM handlers with the operating system again.
+
+    gmsh's initialisation sets them back to their default action in the C library while
+    Python still reports its own handler: a ``kill`` would then end a run at once, without
+    the checkpoint that :mod:`magfem.signals` writes. Main thread only (elsewhere a no-op).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(signum)
+        if handler is not None:
+            signal.signal(signum, handler)
 
 
 def build_mesh(
@@ -69,7 +84,7 @@ def build_mesh(
         initialized_here = not gmsh.isInitialized()
         if initialized_here:
             gmsh.initialize(interruptible=False)
-            restore_handlers()  # gmsh resets SIGTERM in the C library
+            _restore_signal_handlers()
         # options are global to the gmsh session: a robot's Mesh.MeshSizeMax of
         # 0.5 mm must not leak into the next model (a 0.3 m air region meshed at
         # 0.5 mm took minutes and 6 GB), so every model starts from the defaults
