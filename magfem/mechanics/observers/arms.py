@@ -323,7 +323,7 @@ class MidlineProbe:
 
     def columns(self) -> list[str]:
         """CSV column names (``tip_lateral_<arm>`` in 3D only: a strip has no side)."""
-        keys = ("active_length", "folds", "tip_normal", "spread", "curvature")
+        keys: tuple[str, ...] = ("active_length", "folds", "tip_normal", "spread", "curvature")
         keys += ("tip_lateral",) if self.gdim == 3 else ()
         return [f"{k}_{a.name}" for a in self.arms for k in keys]
 
