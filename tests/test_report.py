@@ -179,19 +179,14 @@ def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
     """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
     monkeypatch.chdir(repo)
-    study = next(s for s in load_studies() if s.unresolved)
-    fprint = fingerprint(Path(study.case), study.sets)
-    points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
-    for pt in points:
-        point = tmp_path / "out" / study.ident / "points" / pt.ident
-        point.mkdir(parents=True)
-        record = {"params": pt.params, "status": "done", "wall_s": 1.0, "fingerprint": fprint}
-        (point / "point.json").write_text(json.dumps(record | {"summary": {}}))
-    page = build_report(tmp_path / "out", docs=tmp_path / "docs", echo=None).read_text()
-    n = len(points)
-    row = f"| [{study.ident}](#{study.ident}) | under-resolved | {n}/{n} | {n} |"
-    assert row in page
-    assert f"**Prediction missing:** under-resolved: {study.unresolved}" in page
+    why = "the mesh is coarser than the magnetoelastic length"
+    page = _probe_page(
+        tmp_path,
+        f'params = ["mesh.size=0.1mm,0.05mm"]\nunresolved = "{why}"\n',
+        [{"max_angle_arm": 1.0}, {"max_angle_arm": 1.0}],
+    )
+    assert "| [probe](#probe) | under-resolved | 2/2 | 6 |" in page
+    assert f"**Prediction missing:** under-resolved: {why}" in page
 
 
 def test_report_takes_a_new_study_file_without_code(tmp_path, repo, monkeypatch):
