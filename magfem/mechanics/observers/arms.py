@@ -346,8 +346,8 @@ class MidlineProbe:
             row[f"tip_normal_{arm.name}"] = shape.tip_normal
             row[f"spread_{arm.name}"] = shape.spread
             row[f"curvature_{arm.name}"] = shape.max_curvature
-            if self.gdim == 3:  # sideways: along n x e, in the resting plane across the arm
-                side = np.array([-e[1], e[0], 0.0]) / max(math.hypot(e[0], e[1]), 1e-300)
+            if self.gdim == 3:  # sideways: n x e, across the arm in the resting plane
+                side = np.array([-e[1], e[0], 0.0])
                 row[f"tip_lateral_{arm.name}"] = abs(float(xi[-1] @ side)) / arm.length
         return row
 
