@@ -203,13 +203,39 @@ def test_summary_flags_collapse_and_partial_bending():
     assert out["bending_speed_arm"] == pytest.approx(math.radians(90) / 1.8)
     folded = quiet | {"folds_arm": np.array([0.0, 2.0, 1.0])}
     assert summarize_midline(folded)["collapse"] == 1.0
-    lifted = quiet | {"tip_normal_arm": np.array([0.0, 0.3, 0.1])}
-    assert summarize_midline(lifted)["collapse"] == 1.0
+    # an arm lifted whole (|w_tip|/L = sin 60 deg, spread 0.29 sin 60 deg) has not collapsed
+    lifted = quiet | {"tip_normal_arm": np.array([0.0, 0.87, 0.5])}
+    assert summarize_midline(lifted)["collapse"] == 0.0
     spread = quiet | {"spread_arm": np.array([0.0, 0.2, 0.0])}
     assert summarize_midline(spread)["partial_bending"] == 1.0
     assert "max_tip_lateral_arm" not in out  # a strip's history has no sideways column
     side = quiet | {"tip_lateral_arm": np.array([0.0, 0.4, 0.1])}
     assert summarize_midline(side)["max_tip_lateral_arm"] == 0.4
+    assert summarize_midline(side)["collapse"] == 1.0  # fell over sideways
+    assert summarize_midline(quiet | {"tip_lateral_arm": np.full(3, 0.19)})["collapse"] == 0.0
+
+
+def test_summary_failure_indicators_over_the_first_half_period():
+    """The lift (first half period of a 0.25 Hz drive from t = 0: t <= 2 s) keeps one fold and
+    no sideways motion; a second fold after the reversal trips the whole run's flag only."""
+    t = np.arange(7.0)
+    history = {
+        "time": t,
+        "angle_arm": np.radians([0.0, 60.0, 120.0, 90.0, -30.0, 200.0, 250.0]),
+        "active_length_arm": np.full(7, 1e-3),
+        "folds_arm": np.array([0.0, 1.0, 1.0, 1.0, 2.0, 3.0, 3.0]),
+        "tip_normal_arm": np.array([0.0, 0.8, 0.9, 0.9, 0.3, 0.5, 0.5]),
+        "spread_arm": np.array([0.0, 0.2, 0.25, 0.25, 0.1, 0.2, 0.2]),
+        "tip_lateral_arm": np.array([0.0, 0.0, 0.01, 0.05, 0.3, 0.1, 0.1]),
+    }
+    out = summarize_midline(history, start=0.0, frequency=0.25)
+    assert out["max_folds_halfperiod_arm"] == 1.0 and out["max_folds_arm"] == 3.0
+    assert out["max_tip_lateral_halfperiod_arm"] == 0.01 and out["max_tip_lateral_arm"] == 0.3
+    assert out["collapse_halfperiod"] == 0.0 and out["collapse"] == 1.0
+    assert out["partial_bending_halfperiod"] == 1.0
+    late = summarize_midline(history, start=5.0, frequency=0.25)  # window ends after the run
+    assert math.isnan(late["max_folds_halfperiod_arm"]) and math.isnan(late["collapse_halfperiod"])
+    assert "collapse_halfperiod" not in summarize_midline(history)  # no drive: no window
 
 
 def test_midline_probe_on_a_strip_rigid_rotation(repo, comm):

@@ -44,11 +44,13 @@ Definitions (after Wang, Mao et al., Commun. Mater. 1, 67 (2020)):
     ``FOLD_ANGLE`` = 45° (|Σ κ_k h| ≥ 45°). An arm bent at its root is one
     fold; an S or a second crease is two; a straight arm in any rigid
     rotation is zero. Collapse when > 1.
-  - **normal tip displacement** |w_tip|/L (collapse when > 0.2) and
-    **spread of the out-of-plane displacement** std_k(w_k)/L (partial
-    bending when > 0.1), both over the body (arm) length L: "normal" is along
-    the resting-plane normal n, the spread the standard deviation over the
-    equally spaced samples.
+  - **normal tip displacement** |w_tip|/L along the resting-plane normal n,
+    and **spread of the out-of-plane displacement** std_k(w_k)/L (partial
+    bending when > 0.1; the standard deviation over the equally spaced
+    samples), both over the body (arm) length L. In 3D also the **sideways
+    tip displacement** |(x_tip − X_tip)·(n × e)|/L, across the arm in the
+    resting plane (collapse when > 0.2: the tip displacement normal to the
+    arm; an arm that lifts in its own bending plane has none).
 
 Points are evaluated in parallel and every rank holds the same values
 (:class:`~magfem.mechanics.observers.base.PointEvaluator`).

@@ -4,9 +4,11 @@
   the last instant the angle was ≤ 0° to the first instant it reaches 90°
   after it (both linearly interpolated between samples), in rad/s
   (reported in °/ms).
-* Collapse when an arm's normal tip displacement exceeds 0.2 of its length
-  or its midline has more than one fold; partial bending when the spread of
-  its out-of-plane displacement exceeds 0.1 (:mod:`.arms`).
+* Collapse when an arm's tip moves sideways (across the arm, in the resting
+  plane) by more than 0.2 of its length or its midline has more than one
+  fold; partial bending when the spread of its out-of-plane displacement
+  exceeds 0.1 (:mod:`.arms`). Both over the whole run and, for a periodic
+  drive, over the first half period (the first lift).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ NEAR_90 = math.radians(89.0)
 """Angle at which ``field_90_<arm>`` is read: a tip approaches 90° only asymptotically (the
 couple m × B vanishes as its normal turns into the field), so 90° itself is never reached."""
 COLLAPSE_TIP_NORMAL = 0.2
-"""|w_tip|/L above which an arm has collapsed."""
+"""Sideways tip displacement / L (``tip_lateral_<arm>``, 3D) above which an arm has collapsed."""
 COLLAPSE_FOLDS = 1
 """More folds than this: collapse."""
 PARTIAL_SPREAD = 0.1
@@ -99,7 +101,12 @@ def first_crossing(
     return float(v[j - 1] + (stop - th[j - 1]) * (v[j] - v[j - 1]) / (th[j] - th[j - 1]))
 
 
-def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
+def summarize_midline(
+    history: Mapping[str, npt.NDArray[np.float64]],
+    *,
+    start: float | None = None,
+    frequency: float | None = None,
+) -> dict[str, float]:
     """Summary entries of the midline and speed observables from a run's history columns.
 
     Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
@@ -109,15 +116,17 @@ def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[st
     ``field_90_<arm>`` (T, the field needed for 90°: the applied field's
     magnitude |B| at the first instant the arm reaches ``NEAR_90`` = 89°,
     :func:`first_crossing`; nan if it never does, absent without the ``Bx``,
-    ``By``, ``Bz`` columns); and, when
-    any arm has midline columns, ``collapse`` (1.0 if an arm's max tip normal
-    displacement exceeds 0.2 or its folds exceed 1, else 0.0) and
-    ``partial_bending`` (1.0 if an arm's max spread exceeds 0.1).
+    ``By``, ``Bz`` columns); and, when any arm has midline columns, the flags
+    ``collapse`` (1.0 if an arm's sideways tip displacement exceeds
+    ``COLLAPSE_TIP_NORMAL`` = 0.2 or its folds exceed ``COLLAPSE_FOLDS`` = 1,
+    else 0.0) and ``partial_bending`` (1.0 if an arm's spread exceeds
+    ``PARTIAL_SPREAD`` = 0.1). With a drive ``frequency`` (Hz) and its
+    ``start`` (s), the same maxima and flags over [start, start + 1/(2f)] with
+    ``_halfperiod`` after the quantity (``max_folds_halfperiod_<arm>``,
+    ``collapse_halfperiod``; nan when the run ends before the window does).
     """
     out: dict[str, float] = {}
     t = np.asarray(history["time"], dtype=float)
-    collapse = partial = False
-    have = False
     for key in history:
         if key.startswith("angle_"):
             arm = key[len("angle_") :]
@@ -127,23 +136,44 @@ def summarize_midline(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[st
                     [np.asarray(history[c], dtype=float) for c in _FIELD], axis=0
                 )
                 out[f"field_90_{arm}"] = first_crossing(history[key], field, NEAR_90)
-        if not key.startswith("active_length_"):
-            continue
-        have = True
-        arm = key[len("active_length_") :]
-        out[f"final_active_length_{arm}"] = float(history[key][-1])
-        folds = float(np.nanmax(history[f"folds_{arm}"]))
-        tip = float(np.nanmax(history[f"tip_normal_{arm}"]))
-        spread = float(np.nanmax(history[f"spread_{arm}"]))
-        out[f"max_folds_{arm}"], out[f"max_tip_normal_{arm}"] = folds, tip
-        out[f"max_spread_{arm}"] = spread
-        if f"tip_lateral_{arm}" in history:
-            out[f"max_tip_lateral_{arm}"] = float(np.nanmax(history[f"tip_lateral_{arm}"]))
-        collapse |= tip > COLLAPSE_TIP_NORMAL or folds > COLLAPSE_FOLDS
-        partial |= spread > PARTIAL_SPREAD
-    if have:
-        out["collapse"] = float(collapse)
-        out["partial_bending"] = float(partial)
+    arms = [k[len("active_length_") :] for k in history if k.startswith("active_length_")]
+    if not arms:
+        return out
+    for arm in arms:
+        out[f"final_active_length_{arm}"] = float(history[f"active_length_{arm}"][-1])
+    out |= _failure_indicators(history, arms, np.ones(t.shape, dtype=bool), "")
+    if frequency and start is not None:
+        end = start + 0.5 / frequency
+        covered = bool(t[-1] >= end - 1e-9)
+        rows = (t >= start - 1e-12) & (t <= end + 1e-12) if covered else np.ones(t.shape, bool)
+        lift = _failure_indicators(history, arms, rows, "_halfperiod")
+        out |= lift if covered else dict.fromkeys(lift, math.nan)
+    return out
+
+
+def _failure_indicators(
+    history: Mapping[str, npt.NDArray[np.float64]],
+    arms: list[str],
+    rows: npt.NDArray[np.bool_],
+    suffix: str,
+) -> dict[str, float]:
+    """The arms' largest folds, normal and sideways tip displacements and spreads over the
+    history ``rows``, and the ``collapse`` / ``partial_bending`` flags they give."""
+    out: dict[str, float] = {}
+    collapse = partial = False
+    for arm in arms:
+        peak = {
+            q: float(np.nanmax(np.asarray(history[f"{q}_{arm}"], dtype=float)[rows]))
+            for q in ("folds", "tip_normal", "spread", "tip_lateral")
+            if f"{q}_{arm}" in history
+        }
+        for q, value in peak.items():
+            out[f"max_{q}{suffix}_{arm}"] = value
+        collapse |= peak["folds"] > COLLAPSE_FOLDS
+        collapse |= peak.get("tip_lateral", 0.0) > COLLAPSE_TIP_NORMAL
+        partial |= peak["spread"] > PARTIAL_SPREAD
+    out[f"collapse{suffix}"] = float(collapse)
+    out[f"partial_bending{suffix}"] = float(partial)
     return out
 
 
@@ -179,7 +209,7 @@ def history_summary(
                 out[f"max_angle_{label}_{arm}"] = (
                     max_over_window(t, values, start, end) if covered else math.nan
                 )
-    out |= summarize_midline(history)
+    out |= summarize_midline(history, start=start, frequency=frequency)
     out |= summarize_body(history)
     out |= summarize_cargo(history)
     for column, key in (("strain", "max_strain"), ("bending_strain", "max_bending_strain")):
