@@ -12,13 +12,19 @@ loaded machine) next to wall time:
   and off;
 * ``run``: a run of the case (``--set`` overrides as in ``magfem run``):
   steps, mean Newton iterations, cuts, maximum and final tip angle (deg),
-  and the wall-time split of :meth:`Simulation.timings`.
+  and the wall-time split of :meth:`Simulation.timings`;
+* ``residual``: not pinned, the case as it stands (the P3 shell in air on the
+  ground): ms per assembly of each block of the step residual, with the air
+  and the ground contact switched off in turn, and the count of UFL
+  integrals per block (all share one quadrature rule, so each block is one
+  generated kernel).
 
 From the repository root::
 
     .venv/bin/python -m benchmarks.dynamics_speed assembly
     .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms --save /tmp/a.npy
     .venv/bin/python -m benchmarks.dynamics_speed compare /tmp/ref.npy /tmp/a.npy
+    .venv/bin/python -m benchmarks.dynamics_speed residual
     .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms
 """
 
@@ -156,6 +162,49 @@ def assembly(n: int) -> None:
                 print(f"  {name:28s} cpu {cpu:7.1f} ms  wall {wall:7.1f} ms per call")
 
 
+def _residual_times(sets: list[str], n: int) -> list[tuple[int, float, float]]:
+    """(UFL integrals, cpu ms, wall ms) per assembly of each block of the step residual of
+    the case as it stands with overrides ``sets``."""
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+
+    from magfem.case import load_case
+    from magfem.mechanics.solver import FORM_COMPILER_OPTIONS, JIT_OPTIONS
+    from magfem.pipeline import build_simulation
+
+    sim = build_simulation(load_case(CASE, sets), MPI.COMM_WORLD)
+    residual = sim.problem.residual
+    rows = []
+    for block in residual if isinstance(residual, list) else [residual]:
+        form = fem.form(block, form_compiler_options=FORM_COMPILER_OPTIONS, jit_options=JIT_OPTIONS)
+        vector = fem_petsc.create_vector(form.function_spaces[0])
+
+        def assemble(vector: object = vector, form: object = form) -> None:
+            with vector.localForm() as local:  # type: ignore[attr-defined]
+                local.set(0.0)
+            fem_petsc.assemble_vector(vector, form)  # type: ignore[arg-type]
+
+        rows.append((len(block.integrals()), *_timed(assemble, n)))
+    return rows
+
+
+def residual(n: int) -> None:
+    for label, sets in (
+        ("the case (air, ground contact)", []),
+        ("no air", ["fluid.medium=vacuum"]),
+        ("no ground contact", ["contact.ground=false"]),
+        ("neither", ["fluid.medium=vacuum", "contact.ground=false"]),
+    ):
+        rows = _residual_times(sets, n)
+        if MPI.COMM_WORLD.rank == 0:
+            blocks = ", ".join(
+                f"block {i}: {k} integrals, cpu {cpu:.3f} ms, wall {wall:.3f} ms"
+                for i, (k, cpu, wall) in enumerate(rows)
+            )
+            total = sum(cpu for _, cpu, _ in rows)
+            print(f"{label:32s} {blocks}; cpu {total:.3f} ms in all")
+
+
 def run(sets: list[str], save: str | None = None) -> None:
     from magfem.case import load_case
     from magfem.pipeline import build_simulation
@@ -206,6 +255,8 @@ def main() -> None:
     sub = parser.add_subparsers(dest="part", required=True)
     a = sub.add_parser("assembly")
     a.add_argument("-n", type=int, default=20, help="calls per timing")
+    res = sub.add_parser("residual")
+    res.add_argument("-n", type=int, default=200, help="calls per timing")
     r = sub.add_parser("run")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     r.add_argument("--save", help="write (time s, angle rad) of the run to this .npy")
@@ -215,6 +266,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.part == "assembly":
         assembly(args.n)
+    elif args.part == "residual":
+        residual(args.n)
     elif args.part == "run":
         run(args.set, args.save)
     else:

@@ -3,9 +3,11 @@
 A reduced model of a thin plate in a fluid, written per unit plate area
 with the coefficients of :mod:`magfem.mechanics.loads.hydrodynamics`
 (equations, sources and validity there and in docs/fluid.md). Each face of
-the model (:meth:`~magfem.mechanics.models.base.Model.faces`: the shell's
-two faces, the boundary of a solid or strip) carries half of the plate's
-normal terms and its own skin friction; with n the face's current outward
+the model (:meth:`~magfem.mechanics.models.base.Model.fluid_faces`: the
+shell's two faces, taken together at its mid-surface, the rod's two faces,
+the boundary of a solid or strip) carries half of the plate's normal terms
+and its own skin friction (a face standing for ``count`` faces, that many
+times); with n the face's current outward
 unit normal, v_r = v − U the velocity relative to the current U,
 v_n = v_r·n, v_t = v_r − v_n n, the traction per current area is
 
@@ -119,8 +121,8 @@ class FluidLoad(Load):
         return self.ratio * model.mass_density * ufl.dot(self.g, displacement) * model.dx
 
     def work(self, model: Model, state: Sequence[Any], rates: Sequence[Any]) -> list[ufl.Form]:
-        faces = model.faces(state, rates, self.surfaces)
-        return sum_work(faces, [self.drag_traction(face) for face in faces])
+        faces = model.fluid_faces(state, rates, self.surfaces)
+        return sum_work(faces, [face.count * self.drag_traction(face) for face in faces])
 
     def inertia(
         self, model: Model, state: Sequence[Any], rates: Sequence[Any], accelerations: Sequence[Any]
@@ -134,7 +136,7 @@ class FluidLoad(Load):
         q = [fem.Function(f.function_space) for f in model.unknowns]
         r = [fem.Function(f.function_space) for f in model.unknowns]
         a = [fem.Function(f.function_space) for f in model.unknowns]
-        kinetic = self.added_mass_energy(model.faces(q, r, self.surfaces))
+        kinetic = self.added_mass_energy(model.fluid_faces(q, r, self.surfaces))
         forms = []
         for qi, ri, wi in zip(q, r, model.tests, strict=True):
             momentum = ufl.derivative(kinetic, ri, wi)
@@ -156,7 +158,7 @@ class FluidLoad(Load):
         for face in faces:
             area, _ = self._frame(face)
             vn_area = ufl.dot(face.velocity - self.current, face.normal)
-            density = 0.25 * self.coefficients.added_mass * vn_area**2 / area
+            density = 0.25 * face.count * self.coefficients.added_mass * vn_area**2 / area
             total = total + density * face.measure
         return total
 
@@ -215,9 +217,9 @@ class FluidLoad(Load):
         e = _plane(direction, model.gdim) / np.linalg.norm(direction)
         labels = "xyz" if model.gdim == 3 else "xz"
         forms: dict[str, Any] = {}
-        for face in model.faces(state, rates, self.surfaces):
+        for face in model.fluid_faces(state, rates, self.surfaces):
             area, n = self._frame(face)
-            drag = self.drag_traction(face)
+            drag = face.count * self.drag_traction(face)
             normal = ufl.dot(drag, n) * n
             vn = ufl.dot(face.velocity - self.current, n)
             terms = {f"fluid_force_{k}": drag[i] for i, k in enumerate(labels)}
@@ -226,9 +228,9 @@ class FluidLoad(Load):
                 "fluid_friction": ufl.dot(drag - normal, ufl.as_vector(e)),
                 "fluid_power": -ufl.dot(drag, face.velocity),
                 "fluid_drag_power": -ufl.dot(drag, face.velocity),
-                "fluid_area": area,
-                "fluid_normal_speed2": area * vn**2,
-                "fluid_kinetic": 0.25 * self.coefficients.added_mass * area * vn**2,
+                "fluid_area": face.count * area,
+                "fluid_normal_speed2": face.count * area * vn**2,
+                "fluid_kinetic": 0.25 * face.count * self.coefficients.added_mass * area * vn**2,
             }
             for key, integrand in terms.items():
                 term = integrand * face.measure

@@ -121,6 +121,9 @@ class Face:
         normal: n da/dA, the current outward unit normal times the current
             area per reference area (UFL gdim-vector; Nanson's formula), for
             loads that depend on the face's orientation (pressure, fluid).
+        count: how many of the body's faces it stands for (2: a thin model's
+            two faces taken at its mid-surface, :meth:`Model.fluid_faces`);
+            a load multiplies its traction by it.
     """
 
     position: Any
@@ -129,6 +132,7 @@ class Face:
     measure: Any
     facets: npt.NDArray[np.int32] | None
     normal: Any = None
+    count: int = 1
 
 
 def sum_work(faces: Sequence[Face], tractions: Sequence[Any]) -> list[Any]:
@@ -280,6 +284,11 @@ class Model(ABC):
         Raises:
             CaseError: a name the model does not have (key ``contact.surfaces``).
         """
+
+    def fluid_faces(self, state: State, rates: State, surfaces: Names) -> Faces:
+        """The faces a surrounding fluid acts on: :meth:`faces` (a thin model may stand its
+        two faces by one at its mid-surface, with ``count`` 2)."""
+        return self.faces(state, rates, surfaces)
 
     def place(self, motion: RigidMotion) -> None:
         """Start from a rigid placement and velocity: u_n, the iterate and v_n (collective).
