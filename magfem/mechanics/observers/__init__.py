@@ -25,7 +25,7 @@ from magfem.mechanics.observers.field import AppliedField
 from magfem.mechanics.observers.strain import Strain, StrainProbe
 from magfem.mechanics.observers.summary import (
     COLLAPSE_FOLDS,
-    COLLAPSE_TIP_NORMAL,
+    COLLAPSE_TIP_LATERAL,
     NEAR_90,
     PARTIAL_SPREAD,
     bending_speed,
@@ -39,7 +39,7 @@ from magfem.mechanics.observers.swimming import Swimming, summarize_swimming
 __all__ = [
     "ACTIVE_CURVATURE_FRACTION",
     "COLLAPSE_FOLDS",
-    "COLLAPSE_TIP_NORMAL",
+    "COLLAPSE_TIP_LATERAL",
     "CURVATURE_FLOOR",
     "FOLD_ANGLE",
     "MIDLINE_SAMPLES",

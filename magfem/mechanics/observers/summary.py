@@ -24,7 +24,7 @@ from magfem.mechanics.observers.swimming import summarize_swimming
 
 __all__ = [
     "COLLAPSE_FOLDS",
-    "COLLAPSE_TIP_NORMAL",
+    "COLLAPSE_TIP_LATERAL",
     "NEAR_90",
     "PARTIAL_SPREAD",
     "bending_speed",
@@ -39,7 +39,7 @@ _FIELD = ("Bx", "By", "Bz")
 NEAR_90 = math.radians(89.0)
 """Angle at which ``field_90_<arm>`` is read: a tip approaches 90° only asymptotically (the
 couple m × B vanishes as its normal turns into the field), so 90° itself is never reached."""
-COLLAPSE_TIP_NORMAL = 0.2
+COLLAPSE_TIP_LATERAL = 0.2
 """Sideways tip displacement / L (``tip_lateral_<arm>``, 3D) above which an arm has collapsed."""
 COLLAPSE_FOLDS = 1
 """More folds than this: collapse."""
@@ -118,7 +118,7 @@ def summarize_midline(
     :func:`first_crossing`; nan if it never does, absent without the ``Bx``,
     ``By``, ``Bz`` columns); and, when any arm has midline columns, the flags
     ``collapse`` (1.0 if an arm's sideways tip displacement exceeds
-    ``COLLAPSE_TIP_NORMAL`` = 0.2 or its folds exceed ``COLLAPSE_FOLDS`` = 1,
+    ``COLLAPSE_TIP_LATERAL`` = 0.2 or its folds exceed ``COLLAPSE_FOLDS`` = 1,
     else 0.0) and ``partial_bending`` (1.0 if an arm's spread exceeds
     ``PARTIAL_SPREAD`` = 0.1). With a drive ``frequency`` (Hz) and its
     ``start`` (s), the same maxima and flags over [start, start + 1/(2f)] with
@@ -143,11 +143,11 @@ def summarize_midline(
         out[f"final_active_length_{arm}"] = float(history[f"active_length_{arm}"][-1])
     out |= _failure_indicators(history, arms, np.ones(t.shape, dtype=bool), "")
     if frequency and start is not None:
-        end = start + 0.5 / frequency
-        covered = bool(t[-1] >= end - 1e-9)
-        rows = (t >= start - 1e-12) & (t <= end + 1e-12) if covered else np.ones(t.shape, bool)
-        lift = _failure_indicators(history, arms, rows, "_halfperiod")
-        out |= lift if covered else dict.fromkeys(lift, math.nan)
+        rows = _window(t, start, start + 0.5 / frequency)
+        lift = _failure_indicators(
+            history, arms, np.ones(t.shape, bool) if rows is None else rows, "_halfperiod"
+        )
+        out |= lift if rows is not None else dict.fromkeys(lift, math.nan)
     return out
 
 
@@ -170,7 +170,7 @@ def _failure_indicators(
         for q, value in peak.items():
             out[f"max_{q}{suffix}_{arm}"] = value
         collapse |= peak["folds"] > COLLAPSE_FOLDS
-        collapse |= peak.get("tip_lateral", 0.0) > COLLAPSE_TIP_NORMAL
+        collapse |= peak.get("tip_lateral", 0.0) > COLLAPSE_TIP_LATERAL
         partial |= peak["spread"] > PARTIAL_SPREAD
     out[f"collapse{suffix}"] = float(collapse)
     out[f"partial_bending{suffix}"] = float(partial)
@@ -205,9 +205,10 @@ def history_summary(
         if frequency:
             for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
                 end = start + n / frequency
-                covered = t[-1] >= end - 1e-9
                 out[f"max_angle_{label}_{arm}"] = (
-                    max_over_window(t, values, start, end) if covered else math.nan
+                    max_over_window(t, values, start, end)
+                    if _window(t, start, end) is not None
+                    else math.nan
                 )
     out |= summarize_midline(history, start=start, frequency=frequency)
     out |= summarize_body(history)
@@ -228,6 +229,13 @@ def history_summary(
             out["power_density"] = frequency * out["max_energy_density"]
     out |= summarize_swimming(history, frequency)
     return out
+
+
+def _window(times: npt.NDArray[np.float64], t0: float, t1: float) -> npt.NDArray[np.bool_] | None:
+    """The samples with t0 <= t <= t1, or None when the run ends before t1."""
+    if times[-1] < t1 - 1e-9:
+        return None
+    return (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
 
 
 def max_over_window(
