@@ -245,7 +245,7 @@ def _records(
     for rec in records:  # summaries from the histories: new scalars for old runs too
         point = sweep_dir / "points" / str(rec.get("point", ""))
         if (point / "history.csv").is_file():
-            rec["summary"] = summarize_history(point)
+            rec["summary"] = summarize_history(point, study.window_ends())
     if records:  # the table and plot of the refreshed summaries
         names = [parse_param(p)[0] for p in study.params]
         write_summary(records, names, sweep_dir)
@@ -377,7 +377,7 @@ def _table_lines(study: Study, records: list[dict[str, Any]]) -> list[str]:
             k
             for r in records
             for k in r.get("summary", {})
-            if k.startswith("max_angle_") and "period" not in k
+            if k.startswith("max_angle_") and "period" not in k and "@" not in k
         }
     )
     cols = list(dict.fromkeys([*study.columns, *arms, "end_time"]))

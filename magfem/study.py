@@ -34,6 +34,7 @@ from typing import Any
 
 from magfem.config import MISSING, CaseError, build_fields, flag, integer, option
 from magfem.sweep import build_points, parse_param
+from magfem.units import UnitError, parse_quantity
 
 __all__ = ["STUDIES_DIR", "Study", "load_studies", "load_study"]
 
@@ -42,6 +43,7 @@ STUDIES_DIR = Path("cases/studies")
 
 _IDENT = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 _SET = re.compile(r"^[A-Za-z_]\w*(\.\w+)*=")
+_WINDOW_LABEL = re.compile(r"^[A-Za-z0-9_.]+$")
 _TEXT_KEYS = ("title", "observe", "notes", "pending", "unresolved", "uncertainty")
 
 
@@ -91,6 +93,12 @@ class Study:
         False,
         doc="show the motion.gif of the study's last finished run below its figure (copied "
         "next to the figures as scenes_<id>.gif)",
+    )
+    windows: tuple[str, ...] = option(
+        (),
+        doc="LABEL=TIME texts (e.g. 40Hz=12.5ms): each adds every summary scalar over the "
+        "history up to TIME as <scalar>@LABEL (max_folds_arm@40Hz), for columns, compare and "
+        "the sweep summary; nan where a run ended before TIME",
     )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(
@@ -150,6 +158,35 @@ class Study:
         for i, text in enumerate(self.sets):
             if not _SET.match(text):
                 raise CaseError(f"sets[{i}]", text, "expected KEY=VALUE, e.g. time.end=20ms")
+        self.window_ends()  # raises for a bad window
+
+    def window_ends(self) -> dict[str, float]:
+        """``windows`` as label -> end time (s).
+
+        Raises:
+            CaseError: ``windows[i]``: not LABEL=TIME, a label of other characters than
+                letters, digits, ``.`` and ``_``, a label given twice, or a time that is
+                not a positive duration.
+        """
+        ends: dict[str, float] = {}
+        for i, text in enumerate(self.windows):
+            label, sep, value = text.partition("=")
+            if not sep or not _WINDOW_LABEL.match(label):
+                raise CaseError(
+                    f"windows[{i}]",
+                    text,
+                    "expected LABEL=TIME, e.g. 40Hz=12.5ms (LABEL: letters, digits, '.' and '_')",
+                )
+            if label in ends:
+                raise CaseError(f"windows[{i}]", text, f"the label {label!r} is given twice")
+            try:
+                end = parse_quantity(value, "s")
+            except UnitError as err:
+                raise CaseError(f"windows[{i}]", text, str(err)) from None
+            if not end > 0.0:
+                raise CaseError(f"windows[{i}]", text, "the time must be > 0")
+            ends[label] = end
+        return ends
 
     @classmethod
     def table_keys(cls) -> tuple[str, ...]:

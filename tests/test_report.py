@@ -176,6 +176,30 @@ def test_report_calls_finished_runs_predicted_only_with_their_uncertainty(
     assert "**Prediction missing:**" not in page
 
 
+def test_report_windows_tabulate_the_history_up_to_their_end(tmp_path, repo, monkeypatch):
+    """``windows``: a column ``<scalar>@LABEL`` is the scalar over the history up to the
+    window's end, from each run's history. An arm turning at a constant rate to 90° in 2 ms has
+    turned 45° at 1 ms; the two runs differ only in the window, so the difference line shows
+    what each window saw."""
+    monkeypatch.chdir(repo)
+    body = (
+        'params = ["mesh.size=0.1mm,0.05mm"]\nwindows = ["early=1ms", "past=3ms"]\n'
+        'columns = ["max_angle_arm@early", "max_angle_arm@past"]\n'
+        'compare = ["max_angle_arm@early", "max_angle_arm"]\n'
+    )
+    _probe_page(tmp_path, body, [{}, {}])  # the two finished points, without histories
+    points = sorted((tmp_path / "out/probe/points").iterdir())
+    for rate, point in zip((1.0, 0.5), points, strict=True):
+        rows = [f"{k * 2e-4:.4f},{rate * math.pi / 2 * k / 10}" for k in range(11)]
+        (point / "history.csv").write_text("time [s],angle_arm [rad]\n" + "\n".join(rows))
+    page = _probe_page(tmp_path, body, [])
+    head = "| mesh.size | status | wall (s) | max_angle_arm@early | max_angle_arm@past |"
+    assert head + " max_angle_arm | end_time (s) |" in page
+    assert "| 0.1mm | done | 3 | 45.0° | – | 90.0° | 0.002 |" in page
+    assert "| 0.05mm | done | 3 | 22.5° | – | 45.0° | 0.002 |" in page
+    assert "max_angle_arm@early -22.5° (-50.0 %); max_angle_arm -45.0° (-50.0 %)" in page
+
+
 def test_report_marks_finished_but_under_resolved_scene(tmp_path, repo, monkeypatch):
     """A study with ``unresolved`` set: all its runs done, yet not called predicted."""
     monkeypatch.chdir(repo)

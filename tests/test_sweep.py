@@ -225,6 +225,31 @@ def test_history_summary_reads_first_self_touch(tmp_path):
     assert math.isnan(summarize_history(tmp_path)["first_self_touch"])
 
 
+@pytest.mark.serial
+def test_a_window_of_a_held_step_is_the_run_stopped_at_its_reversal(tmp_path):
+    """A square wave holds its first direction for half a period, whatever its frequency: the
+    summary of the 100 Hz probe's history up to 1.25 ms (a window) is that of the 400 Hz run,
+    which stops at its first reversal there (the same field, the same steps), to round-off.
+    A window past the run's end is nan, and a window is not the whole run."""
+    from magfem.sweep import summarize_history
+
+    case = _case_file(tmp_path)
+    quiet = ["-q", "--set", "output.animation=false"]
+    stop = ["--set", "field.sources.0.waveform.frequency=400Hz", "--set", "time.end=1.25ms"]
+    assert main(["run", str(case), "--out", str(tmp_path / "stopped"), *quiet, *stop]) == 0
+    assert main(["run", str(case), "--out", str(tmp_path / "held"), *quiet]) == 0
+    stopped = summarize_history(tmp_path / "stopped")
+    held = summarize_history(tmp_path / "held", {"400Hz": 1.25e-3, "later": 3e-3})
+    assert stopped["max_angle_arm"] > math.radians(5.0)  # the arm moved in the window
+    for key in ("max_angle_arm", "final_angle_arm", "max_strain", "max_folds_arm"):
+        assert held[f"{key}@400Hz"] == pytest.approx(stopped[key], rel=1e-9, abs=1e-15), key
+    assert held["max_angle_arm"] > 1.1 * held["max_angle_arm@400Hz"]  # it rose on after 1.25 ms
+    later = {k: v for k, v in held.items() if k.endswith("@later")}
+    whole = {k for k in held if "@" not in k} - {"end_time", "steps"}
+    assert {k.removesuffix("@later") for k in later} == whole
+    assert all(map(math.isnan, later.values()))
+
+
 def test_a_value_inserted_in_a_list_keeps_the_finished_points(tmp_path):
     """Folders are named p<index>_<hash>: inserting 5 Hz before 10 and 20 Hz moves their
     indices, and their finished runs must be taken over, not run again."""

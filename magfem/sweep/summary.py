@@ -5,17 +5,27 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 from matplotlib.figure import Figure
 
 from magfem.mechanics.columns import read_history
 from magfem.mechanics.observers import history_summary
 from magfem.sweep.points import format_number
 
-__all__ = ["LOG_AXIS_RATIO", "log_axis", "plot_sweep", "summarize_history", "write_summary"]
+__all__ = [
+    "LOG_AXIS_RATIO",
+    "WINDOW_END_TOLERANCE",
+    "log_axis",
+    "plot_sweep",
+    "summarize_history",
+    "window_summary",
+    "write_summary",
+]
 
 
 def _frequency(resolved: dict[str, Any]) -> float | None:
@@ -38,11 +48,15 @@ def _lookup(table: Any, name: str) -> Any:
     return node
 
 
-def summarize_history(run_dir: Path) -> dict[str, float]:
+def summarize_history(
+    run_dir: Path, windows: Mapping[str, float] | None = None
+) -> dict[str, float]:
     """Summary scalars (module docstring) of a run directory's ``history.csv``.
 
     Needs ``history.csv`` and ``case.resolved.toml`` (for t₀, f, μ); returns {}
-    when the history is missing or empty.
+    when the history is missing or empty. ``windows``: label -> end time T (s);
+    each adds the summary of the rows up to T as ``<key>@<label>``
+    (:func:`window_summary`).
     """
     hist = run_dir / "history.csv"
     if not hist.is_file():
@@ -58,7 +72,38 @@ def summarize_history(run_dir: Path) -> dict[str, float]:
     freq = _frequency(resolved)
     out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
     out |= history_summary(cols, start=t0, frequency=freq)
+    for label, end in (windows or {}).items():
+        out |= window_summary(cols, label, end, start=t0, frequency=freq)
     return out
+
+
+WINDOW_END_TOLERANCE = 1e-9
+"""Relative tolerance of a window's end time against the history's times (s)."""
+
+
+def window_summary(
+    history: Mapping[str, npt.NDArray[np.float64]],
+    label: str,
+    end: float,
+    *,
+    start: float,
+    frequency: float | None,
+) -> dict[str, float]:
+    """The summary of the history's rows up to ``end`` (s), each key as ``<key>@<label>``.
+
+    What the run would have summarised had it stopped at ``end``: for a square
+    wave's held first direction, the first lift of every frequency whose half
+    period ends there. Every key is nan when the history ends before ``end``
+    (the window is not complete).
+    """
+    t = np.asarray(history["time"], dtype=float)
+    rows = t <= end * (1.0 + WINDOW_END_TOLERANCE)
+    rows[0] = True  # the keys, even of a window that ends before the first row
+    part = history_summary(
+        {k: np.asarray(v)[rows] for k, v in history.items()}, start=start, frequency=frequency
+    )
+    complete = t[-1] >= end * (1.0 - WINDOW_END_TOLERANCE) and t[0] <= end
+    return {f"{key}@{label}": value if complete else math.nan for key, value in part.items()}
 
 
 def _si_value(record: dict[str, Any], name: str, out: Path) -> float:
