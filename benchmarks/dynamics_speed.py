@@ -13,6 +13,9 @@ loaded machine) next to wall time:
 * ``run``: a run of the case (``--set`` overrides as in ``magfem run``):
   steps, mean Newton iterations, cuts, maximum and final tip angle (deg),
   and the wall-time split of :meth:`Simulation.timings`;
+* ``fused``: ms per assembly of the step residual with one kernel per block and
+  with one fused kernel (:mod:`magfem.mechanics.fused_residual`), for the case as
+  it stands (the P3 shell) and the pinned 1 mm solid (displacement and pressure);
 * ``residual``: not pinned, the case as it stands (the P3 shell in air on the
   ground): ms per assembly of each block of the step residual, with the air
   and the ground contact switched off in turn, and the count of UFL
@@ -25,6 +28,7 @@ From the repository root::
     .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms --save /tmp/a.npy
     .venv/bin/python -m benchmarks.dynamics_speed compare /tmp/ref.npy /tmp/a.npy
     .venv/bin/python -m benchmarks.dynamics_speed residual
+    .venv/bin/python -m benchmarks.dynamics_speed fused
     .venv/bin/mpirun -n 2 .venv/bin/python -m benchmarks.dynamics_speed run --set time.end=10ms
 """
 
@@ -37,6 +41,7 @@ import magfem  # noqa: F401  (the PyPI wheel loads MPI before dolfinx)
 import argparse
 import math
 import time
+from typing import Any
 
 import numpy as np
 from mpi4py import MPI
@@ -205,6 +210,49 @@ def residual(n: int) -> None:
             print(f"{label:32s} {blocks}; cpu {total:.3f} ms in all")
 
 
+def fused(n: int) -> None:
+    """CPU per assembly of the step residual with one kernel per block and with the fused
+    kernel, at the initial state of the case as it stands and of the 1 mm solid (rank 0)."""
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+
+    from magfem.case import load_case
+    from magfem.pipeline import build_simulation
+
+    for label, case in (
+        ("the case (P3 shell)", load_case(CASE, [])),
+        ("the 1 mm solid", load_case(CASE, pinned_trapezoid())),
+    ):
+        sim = build_simulation(case, MPI.COMM_WORLD)
+        solver = sim.solver
+        problem = solver.problem
+        if solver.fused is None:
+            print(f"{label}: one unknown, nothing to fuse")
+            continue
+        x: Any = problem.x
+        b: Any = problem.b
+        fem_petsc.assign(solver.u, x)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+        def blocks(b: object = b, problem: object = problem) -> None:
+            with b.localForm() as local:  # type: ignore[attr-defined]
+                local.set(0.0)
+            fem_petsc.assemble_vector(b, problem.F)  # type: ignore[arg-type, attr-defined]
+            b.ghostUpdate(  # type: ignore[attr-defined]
+                addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE
+            )
+
+        def one(x: object = x, b: object = b, solver: object = solver) -> None:
+            solver.fused.assemble(x, b)  # type: ignore[attr-defined]
+
+        (cb, wb), (cf, wf) = _timed(blocks, n), _timed(one, n)
+        if MPI.COMM_WORLD.rank == 0:
+            print(
+                f"{label}: blocks cpu {cb:.3f} ms (wall {wb:.3f}), fused cpu {cf:.3f} ms "
+                f"(wall {wf:.3f}): {cb / cf:.2f} x less CPU"
+            )
+
+
 def run(sets: list[str], save: str | None = None) -> None:
     from magfem.case import load_case
     from magfem.pipeline import build_simulation
@@ -257,6 +305,8 @@ def main() -> None:
     a.add_argument("-n", type=int, default=20, help="calls per timing")
     res = sub.add_parser("residual")
     res.add_argument("-n", type=int, default=200, help="calls per timing")
+    fu = sub.add_parser("fused")
+    fu.add_argument("-n", type=int, default=200, help="calls per timing")
     r = sub.add_parser("run")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     r.add_argument("--save", help="write (time s, angle rad) of the run to this .npy")
@@ -268,6 +318,8 @@ def main() -> None:
         assembly(args.n)
     elif args.part == "residual":
         residual(args.n)
+    elif args.part == "fused":
+        fused(args.n)
     elif args.part == "run":
         run(args.set, args.save)
     else:

@@ -42,6 +42,7 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from magfem.mechanics.forms import FORM_COMPILER_OPTIONS, JIT_OPTIONS
+from magfem.mechanics.fused_residual import FusedResidual
 from magfem.mechanics.jacobian_reuse import JacobianReuse
 from magfem.mechanics.solver_options import (
     FACTORISATIONS,
@@ -136,6 +137,10 @@ class NewtonSolver:
             default case that was 15 ms of a 27 ms residual).
         refresh_on: with ``spec.reuse_jacobian``, constants of the Jacobian whose
             change makes the kept Jacobian stale (:class:`JacobianReuse`).
+        fuse_blocks: with ``homogeneous_bcs``, assemble block residuals of several
+            Lagrange unknowns by one kernel on their mixed space
+            (:class:`~magfem.mechanics.fused_residual.FusedResidual`; the same residual
+            to round-off); False: one kernel per block.
 
     The forms are compiled once here (timed in ``timings.compile``).
     """
@@ -152,6 +157,7 @@ class NewtonSolver:
         force_scale: float | None = None,
         homogeneous_bcs: bool = False,
         refresh_on: Sequence[fem.Constant] = (),
+        fuse_blocks: bool = True,
     ):
         self.u = u
         self.spec = spec
@@ -175,6 +181,9 @@ class NewtonSolver:
             form_compiler_options=FORM_COMPILER_OPTIONS,
             jit_options=JIT_OPTIONS,
         )
+        self.fused = FusedResidual.build(F, u) if fuse_blocks and homogeneous_bcs else None
+        """Block residuals assembled by one kernel (:mod:`magfem.mechanics.fused_residual`),
+        or None: each block's form."""
         self.timings.compile += time.perf_counter() - t0
         self.linear_solver = self._choose_linear_solver()
         """The direct solver factorising the Jacobian (``petsc``, ``mumps``, ``superlu_dist``)."""
@@ -259,7 +268,7 @@ class NewtonSolver:
         problem = self.problem
         snes = problem.solver
         u, F, J = problem.u, problem.F, problem.J
-        timings = self.timings
+        timings, fused = self.timings, self.fused
         residual_hooks, jacobian_hooks = self.residual_hooks, self.jacobian_hooks
         blocks: Any = problem.b.getAttr("_blocks")  # layout of block residuals, else None
         # the conditions of each block's unknown (blocks), else all of them
@@ -275,10 +284,13 @@ class NewtonSolver:
                     b.setAttr("_blocks", blocks)
                 x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
                 fem_petsc.assign(x, u)  # type: ignore[arg-type]
-                with b.localForm() as b_local:
-                    b_local.set(0.0)
-                fem_petsc.assemble_vector(b, F)  # type: ignore[arg-type]
-                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                if fused is not None:
+                    fused.assemble(x, b)
+                else:
+                    with b.localForm() as b_local:
+                        b_local.set(0.0)
+                    fem_petsc.assemble_vector(b, F)  # type: ignore[arg-type]
+                    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 for hook in residual_hooks:
                     hook(x, b)
                 fem_petsc.set_bc(b, block_bcs, x0=x, alpha=-1.0)
