@@ -58,3 +58,17 @@ def test_measures_with_different_tags_and_empty_forms(square):
     bundle = ScalarForms(square, forms)
     assert len(bundle.parts) == 2
     assert np.allclose(bundle.assemble(), [0.5, 0.0, 1.0 / 3.0], rtol=0, atol=1e-12)
+
+
+def test_native_flags_key_the_form_cache_by_cpu():
+    """x86-64: -march=native and a define that differs between CPUs (model or instruction
+    set) and not between two reads of one CPU; elsewhere the portable flags alone."""
+    from magfem.mechanics.forms import native_flags
+
+    epyc = "processor : 0\nmodel name : AMD EPYC\nflags : fpu sse2 avx2 avx512f\n"
+    flags = native_flags(epyc + epyc.replace("processor : 0", "processor : 1"), "x86_64")
+    assert flags[0] == "-march=native" and flags[1].startswith("-DMAGFEM_CPU=")
+    assert native_flags(epyc, "AMD64") == flags
+    assert native_flags(epyc.replace(" avx512f", ""), "x86_64") != flags
+    assert native_flags(epyc.replace("EPYC", "Xeon"), "x86_64") != flags
+    assert native_flags(epyc, "aarch64") == [] and native_flags(epyc, "arm64") == []
