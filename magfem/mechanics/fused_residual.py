@@ -80,8 +80,8 @@ class FusedResidual:
         unknowns: the Functions the forms are nonlinear in (Newton's unknowns).
 
     Raises:
-        ValueError: the unknowns' degrees of freedom cannot be matched to the mixed
-            space's (see :func:`build`, which returns None instead).
+        ValueError: on every rank, when on some rank the unknowns' degrees of freedom
+            cannot be matched to the mixed space's (:meth:`build` returns None instead).
     """
 
     def __init__(self, forms: Sequence[ufl.Form], unknowns: Sequence[fem.Function]):
@@ -96,28 +96,31 @@ class FusedResidual:
             mapping = {u: p for u, p in zip(unknowns, parts, strict=True)} | {test: tests[i]}
             fused = fused + ufl.replace(form, mapping)
         owned, ghosts = [], []
+        matched = True
         for i, V in enumerate(spaces):
             Wi, to_parent = W.sub(i).collapse()
             match = _node_match(V, Wi)
             if match is None:
-                raise ValueError(f"unknown {i}: its nodes do not match the mixed space's")
+                matched = False
+                continue
             bs = V.dofmap.index_map_bs
             index = np.asarray(to_parent, dtype=np.int64).reshape(-1, bs)[match].reshape(-1)
             n = bs * V.dofmap.index_map.size_local
             owned.append(index[:n])
             ghosts.append(index[n:])
-        local = W.dofmap.index_map.size_local + W.dofmap.index_map.num_ghosts
         self.perm = np.concatenate(owned + ghosts)
         """W's local dof of each entry of Newton's local block vector."""
-        size = local * W.dofmap.index_map_bs
+        bs_w = W.dofmap.index_map_bs
+        size = (W.dofmap.index_map.size_local + W.dofmap.index_map.num_ghosts) * bs_w
         n_owned = sum(len(o) for o in owned)
-        if (
+        matched = matched and not (
             len(self.perm) != size
             or len(np.unique(self.perm)) != size
-            or n_owned != W.dofmap.index_map.size_local * W.dofmap.index_map_bs
+            or n_owned != W.dofmap.index_map.size_local * bs_w
             or np.any(self.perm[:n_owned] >= n_owned)
-        ):
-            raise ValueError("the unknowns' degrees of freedom do not cover the mixed space's")
+        )
+        if mesh.comm.allreduce(not matched, op=MPI.LOR):  # every rank raises, or none
+            raise ValueError("the unknowns' degrees of freedom do not match the mixed space's")
         self.form = compile_form(fused)
         self.vector: Any = fem_petsc.create_vector(W)
 
@@ -127,18 +130,15 @@ class FusedResidual:
         or the unknowns' nodes cannot be matched to the mixed space's (collective)."""
         if not fusable(forms, unknowns):
             return None
-        comm = unknowns[0].function_space.mesh.comm
         try:
-            fused: FusedResidual | None = cls(forms, unknowns)
-        except ValueError:
-            fused = None
-        if comm.allreduce(fused is None, op=MPI.LOR):
+            return cls(forms, unknowns)
+        except ValueError:  # raised on every rank
             return None
-        return fused
 
     def assemble(self, x: Any, b: Any) -> None:
         """b = the block residual at x (ghost-updated x, Newton's block layout); b's owned
-        entries are complete (ghost-accumulated), its ghost entries are not set."""
+        entries are complete (ghost-accumulated), its ghost entries partial sums that the
+        caller's forward scatter replaces."""
         with x.localForm() as x_local:
             self.w.x.array[self.perm] = x_local.array_r
         vector = self.vector
