@@ -266,6 +266,58 @@ def test_tip_size_meshes_every_piece(shape, comm):
     assert clamp == pytest.approx(exact, rel=1e-12)
 
 
+@pytest.mark.parametrize(
+    ("shape", "model"), [("bow_tie", "surface"), ("rectangle", "solid"), ("rectangle", "strip")]
+)
+def _cell_sizes(rm, model: str, outline, comm) -> tuple[np.ndarray, np.ndarray]:
+    """Per owned cell: its size (square root of the in-plane area; the strip: its length)
+    and its x distance to the nearest free edge of the clamp patch (arms along x)."""
+    depth = 1.0 if model == "surface" else THICKNESS
+    tdim = rm.mesh.topology.dim
+    cells = np.arange(rm.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+    W = fem.functionspace(rm.mesh, ("DG", 0))
+    dx = ufl.dx(domain=rm.mesh, metadata={"quadrature_degree": Q})
+    area = fem.assemble_vector(fem.form(ufl.TestFunction(W) * dx)).array[cells] / depth
+    corners = rm.mesh.geometry.x[dmesh.entities_to_geometry(rm.mesh, tdim, cells)]
+    held = np.asarray(outline.in_clamp(corners[:, :, 0].ravel(), corners[:, :, 1].ravel()))
+    held = held.reshape(corners.shape[:2])
+    edge = held.any(axis=1) & ~held.all(axis=1)  # cells with a corner on the free edge
+    xs = np.concatenate(comm.allgather(np.unique(np.round(corners[edge][held[edge]][:, 0], 9))))
+    gap = np.abs(corners[:, :, 0].mean(axis=1)[:, None] - np.unique(xs)[None, :]).min(axis=1)
+    return (area if model == "strip" else np.sqrt(area)), gap
+
+
+@pytest.mark.parametrize(
+    ("shape", "model"), [("bow_tie", "surface"), ("rectangle", "solid"), ("rectangle", "strip")]
+)
+def test_root_size_refines_where_the_arms_leave_the_patch(shape, model, comm):
+    """``root_size`` = size/4 at size 1 mm: the cells along the clamp patch's free edges
+    are root_size on average (cell size: the square root of the in-plane area, the length
+    for the strip; within 25 %, which the full-quad recombination's irregular
+    quadrilaterals take), cells beyond a quarter arm and a cell from them are as large as
+    without ``root_size`` (average within 10 %), and every piece is meshed (the robot's
+    measure is exact)."""
+    r = robot(shape)
+    size, outline = 1e-3, outline_of(r)
+    reach = 0.25 * min(a.length for a in outline.arms)
+
+    def mean(values, mask):
+        total = comm.allreduce(np.array([values[mask].sum(), mask.sum()]), op=MPI.SUM)
+        return total[0] / total[1]
+
+    means = []
+    for root_size in (None, size / 4):
+        rm = create_robot_mesh(r, meshspec(model=model, size=size, root_size=root_size), comm)
+        depth = 1.0 if model == "surface" else THICKNESS
+        exact = (r.length if model == "strip" else rm.area) * depth
+        assert measure(rm, comm) == pytest.approx(exact, rel=1e-9)
+        h, gap = _cell_sizes(rm, model, outline, comm)
+        means.append((mean(h, gap < 0.75 * h), mean(h, gap > reach + size)))
+    assert means[1][0] == pytest.approx(size / 4, rel=0.25)
+    assert means[0][0] > 1.4 * means[1][0]  # refined (the bow tie's 1 mm patch: 0.36 mm)
+    assert means[1][1] == pytest.approx(means[0][1], rel=0.1)
+
+
 def test_a_piece_gmsh_leaves_unmeshed_names_the_key(comm, monkeypatch):
     """Without the even curve counts (forced here), the rectangle's clamp patch at 2 mm with
     tip_size 0.5 mm has no elements: refused on mesh.size, not a robot with a part missing."""

@@ -160,6 +160,12 @@ def test_mesh_spec_checks():
     assert meshspec(size="0.1 mm") == MeshSpec(size=1e-4)  # only size is required
     with pytest.raises(CaseError, match="tip_size"):
         meshspec(size="0.1 mm", tip_size="0.2 mm")
+    with pytest.raises(CaseError, match="root_size") as err:
+        meshspec(size="0.1 mm", root_size="0.2 mm")
+    assert "<= size" in str(err.value)
+    with pytest.raises(CaseError, match="uniformly") as err:
+        meshspec(size="0.1 mm", root_size="0.05 mm", model="rod")
+    assert err.value.key == "mesh.root_size"
     with pytest.raises(CaseError, match="element"):
         meshspec(size="0.1 mm", element="wedge")  # prism solids: no facet tags in dolfinx 0.11
     with pytest.raises(CaseError) as err:

@@ -90,9 +90,10 @@ class _Plan(NamedTuple):
     cells: dict[str, list[int]]  # cell group -> entities of dim tdim
     facets: dict[str, list[int]]  # facet group -> entities of dim tdim - 1
     recombine: list[int]  # surfaces to recombine into quadrilaterals
-    tip_dim: int  # dimension of the tip entities below (0 points, 1 curves)
+    tip_dim: int  # dimension of the tip and root entities below (0 points, 1 curves)
     tips: list[int]  # entities the tip refinement is measured from
     curves: list[int]  # curves of the meshed outline (before extrusion)
+    roots: list[int]  # where the membrane leaves the clamp patch (root refinement)
 
 
 class StretchedOutline(Outline):
@@ -128,29 +129,55 @@ class StretchedOutline(Outline):
 
 
 def _size_field(gmsh: Any, spec: MeshSpec, outline: Outline, plan: _Plan) -> None:
-    """Uniform size ``spec.size``, refined linearly to ``tip_size`` at the tip entities.
+    """Uniform size ``spec.size``, refined linearly to ``tip_size`` at the tip entities and
+    to ``root_size`` where the membrane leaves the clamp patch.
 
-    The size grows from ``tip_size`` at the tips to ``size`` at a distance of a
-    quarter of the shortest arm.
+    Each refinement grows to ``size`` at a distance of a quarter of the
+    shortest arm; where both reach, the smaller size wins.
     """
     gmsh.option.setNumber("Mesh.MeshSizeMax", spec.size)
     gmsh.option.setNumber("Mesh.MeshSizeMin", 0.0)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-    if spec.tip_size is None or not plan.tips:
-        return
     field = gmsh.model.mesh.field
-    dist = field.add("Distance")
-    field.setNumbers(dist, "PointsList" if plan.tip_dim == 0 else "CurvesList", plan.tips)
-    field.setNumber(dist, "Sampling", 100)
-    thr = field.add("Threshold")
-    field.setNumber(thr, "InField", dist)
-    field.setNumber(thr, "SizeMin", spec.tip_size)
-    field.setNumber(thr, "SizeMax", spec.size)
-    field.setNumber(thr, "DistMin", 0.0)
-    field.setNumber(thr, "DistMax", 0.25 * min(a.length for a in outline.arms))
-    field.setAsBackgroundMesh(thr)
+    refined = []
+    for size, entities in ((spec.tip_size, plan.tips), (spec.root_size, plan.roots)):
+        if size is None or not entities:
+            continue
+        dist = field.add("Distance")
+        field.setNumbers(dist, "PointsList" if plan.tip_dim == 0 else "CurvesList", entities)
+        field.setNumber(dist, "Sampling", 100)
+        thr = field.add("Threshold")
+        field.setNumber(thr, "InField", dist)
+        field.setNumber(thr, "SizeMin", size)
+        field.setNumber(thr, "SizeMax", spec.size)
+        field.setNumber(thr, "DistMin", 0.0)
+        field.setNumber(thr, "DistMax", 0.25 * min(a.length for a in outline.arms))
+        refined.append(thr)
+    if not refined:
+        return
+    background = refined[0]
+    if len(refined) > 1:
+        background = field.add("Min")
+        field.setNumbers(background, "FieldsList", refined)
+    field.setAsBackgroundMesh(background)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+
+
+def _root_curves(gmsh: Any, outline: Outline, surfaces: list[int]) -> list[int]:
+    """The curves between a piece of the clamp patch and a free piece (planar outline)."""
+    if not outline.clamped:
+        return []
+    bonded = {}
+    for s in surfaces:
+        x, y, _ = _com(gmsh, 2, s)
+        bonded[s] = bool(np.all(outline.in_clamp(np.array([x]), np.array([y]))))
+    roots = []
+    for _, c in gmsh.model.getEntities(1):
+        up = [s for s in gmsh.model.getAdjacencies(1, c)[0] if s in bonded]
+        if len({bonded[s] for s in up}) == 2:
+            roots.append(c)
+    return roots
 
 
 def _vertices(gmsh: Any, dim: int, tag: int) -> npt.NDArray[np.float64]:
@@ -224,6 +251,7 @@ def _build_solid(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
     surfaces = _planar_outline(gmsh, outline)
     curves = [c for _, c in gmsh.model.getEntities(1)]
     tips = [c for cs in _tip_curves(gmsh, outline).values() for c in cs]
+    roots = _root_curves(gmsh, outline, surfaces)
     occ.extrude(
         [(2, s) for s in surfaces],
         0.0,
@@ -234,7 +262,7 @@ def _build_solid(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
     )
     occ.synchronize()
     facets = _facet_groups(gmsh, outline, 2, robot.thickness)
-    return _Plan(3, _cell_groups(gmsh, outline, 3), facets, surfaces, 1, tips, curves)
+    return _Plan(3, _cell_groups(gmsh, outline, 3), facets, surfaces, 1, tips, curves, roots)
 
 
 def _build_surface(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) -> _Plan:
@@ -242,9 +270,10 @@ def _build_surface(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec
     tips = _tip_curves(gmsh, outline)
     cells = _cell_groups(gmsh, outline, 2)
     curves = [c for _, c in gmsh.model.getEntities(1)]
+    roots = _root_curves(gmsh, outline, surfaces)
     gmsh.model.occ.translate(gmsh.model.occ.getEntities(), 0.0, 0.0, 0.5 * robot.thickness)
     flat = [c for cs in tips.values() for c in cs]
-    return _Plan(2, cells, tips, surfaces, 1, flat, curves)
+    return _Plan(2, cells, tips, surfaces, 1, flat, curves, roots)
 
 
 def _build_strip(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) -> _Plan:
@@ -256,6 +285,8 @@ def _build_strip(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
     pts = [occ.addPoint(x, 0.0, 0.0) for x in xs]
     lines = [occ.addLine(a, b) for a, b in itertools.pairwise(pts)]
     tip_pts = [p for p, x in zip(pts, xs, strict=True) if outline.tip_group(x, 0.0)]
+    held = outline.in_clamp(0.5 * (np.array(xs[:-1]) + np.array(xs[1:])), np.zeros(len(xs) - 1))
+    root_pts = [pts[i + 1] for i in range(len(xs) - 2) if held[i] != held[i + 1]]
     occ.extrude(
         [(1, ln) for ln in lines],
         0.0,
@@ -266,7 +297,7 @@ def _build_strip(gmsh: Any, outline: Outline, robot: RobotSpec, spec: MeshSpec) 
     )
     occ.synchronize()
     facets = _facet_groups(gmsh, outline, 1, robot.thickness)
-    return _Plan(2, _cell_groups(gmsh, outline, 2), facets, [], 0, tip_pts, [])
+    return _Plan(2, _cell_groups(gmsh, outline, 2), facets, [], 0, tip_pts, [], root_pts)
 
 
 _BUILDERS = {"solid": _build_solid, "surface": _build_surface, "strip": _build_strip}
@@ -299,7 +330,7 @@ def _mesh_options(gmsh: Any, spec: MeshSpec, plan: _Plan) -> None:
         gmsh.model.mesh.setRecombine(2, s)
     # full-quad recombination fails on curves meshed with one element
     # (short hub arcs, the cut at a triangle's tip zone): give them two
-    h = spec.size if spec.tip_size is None else spec.tip_size
+    h = min(x for x in (spec.size, spec.tip_size, spec.root_size) if x is not None)
     for c in plan.curves:
         if gmsh.model.occ.getMass(1, c) < 2 * h:
             gmsh.model.mesh.setTransfiniteCurve(c, 3)

@@ -159,10 +159,13 @@ class MeshSpec:
     facets of prism meshes, so wedge solids are rejected). ``order = 2``
     gives second-order (curved) geometry, which represents the round hubs
     and petals of ``star`` and ``flower`` far better. ``tip_size`` refines the
-    in-plane size towards the arm tips. ``size_across`` sets a different
-    element size across arms that run along x (the beam-like shapes), whose
-    bending varies along the arm: ``size = 0.25mm, size_across = 1mm`` resolves
-    the bending like a 0.25 mm mesh with a quarter of its elements.
+    in-plane size towards the arm tips, ``root_size`` towards the free edges of
+    the clamp patch, where the arms leave it and fold tightest when they wrap
+    round it (both grow to ``size`` over a quarter of the shortest arm).
+    ``size_across`` sets a different element size across arms that run along x
+    (the beam-like shapes), whose bending varies along the arm:
+    ``size = 0.25mm, size_across = 1mm`` resolves the bending like a 0.25 mm
+    mesh with a quarter of its elements.
 
     ``root`` says how the bonded patch (the ``clamp`` group) holds the
     membrane. ``bonded`` (default) is the experiments' glued bottom face: the
@@ -188,6 +191,9 @@ class MeshSpec:
     element: str = option("hex", choices=("hex", "wedge"), doc="hex (quads) or wedge (triangles)")
     order: int = integer(1, ge=1, le=2, doc="geometry order")
     tip_size: float | None = quantity(None, "m", gt=0, doc="element size at the arm tips")
+    root_size: float | None = quantity(
+        None, "m", gt=0, doc="element size where the arms leave the clamp patch (their roots)"
+    )
     size_across: float | None = quantity(
         None, "m", gt=0, doc="element size across arms along x (default size)"
     )
@@ -213,8 +219,12 @@ class MeshSpec:
     )
 
     def __post_init__(self) -> None:
-        if self.tip_size is not None and self.tip_size > self.size:
-            raise CaseError("tip_size", self.tip_size, f"must be <= size ({self.size:g} m)")
+        for key in ("tip_size", "root_size"):
+            value = getattr(self, key)
+            if value is not None and value > self.size:
+                raise CaseError(key, value, f"must be <= size ({self.size:g} m)")
+            if value is not None and self.model == "rod":
+                raise CaseError(key, value, "the rod model meshes its midlines uniformly")
         if self.size_across is not None and self.model in ("strip", "rod"):
             raise CaseError(
                 "size_across", self.size_across, f"the {self.model} model has no across direction"
