@@ -266,9 +266,6 @@ def test_tip_size_meshes_every_piece(shape, comm):
     assert clamp == pytest.approx(exact, rel=1e-12)
 
 
-@pytest.mark.parametrize(
-    ("shape", "model"), [("bow_tie", "surface"), ("rectangle", "solid"), ("rectangle", "strip")]
-)
 def _cell_sizes(rm, model: str, outline, comm) -> tuple[np.ndarray, np.ndarray]:
     """Per owned cell: its size (square root of the in-plane area; the strip: its length)
     and its x distance to the nearest free edge of the clamp patch (arms along x)."""

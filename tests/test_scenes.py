@@ -83,7 +83,15 @@ SCENES: dict[str, list[str]] = {
     ),
     "active_length": _tiny("1mm", "0.2s", "0.05s", *STRIP),
     "failure": _tiny("2.5mm", "2ms", "0.5ms", "mesh.size_across=2.5mm", "solver.degree=2"),
-    "bow_tie": _tiny("1mm", "2ms", "0.5ms", "mesh.size_across=1mm", "solver.degree=2", *NO_GROUND),
+    "bow_tie": _tiny(
+        "1mm",
+        "2ms",
+        "0.5ms",
+        "mesh.size_across=1mm",
+        "mesh.root_size=0.5mm",
+        "solver.degree=2",
+        *NO_GROUND,
+    ),
     "self_clean": _tiny("0.5mm", "3ms", "0.5ms", *STRIP),
 }
 """Scene case -> ``--set`` arguments of its tiny run."""
