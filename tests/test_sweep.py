@@ -212,6 +212,41 @@ def test_a_stopped_point_continues_from_its_checkpoint(tmp_path):
             np.testing.assert_array_equal(history[key], column, err_msg=key)
 
 
+@pytest.mark.serial
+def test_a_failed_point_retried_continues_from_its_checkpoint(tmp_path):
+    """A point recorded as failed that left a checkpoint at 1 ms of 2 ms (as a run that
+    crashed after a restart leaves it) is skipped by a plain rerun and, with
+    ``retry_failed``, continues from the checkpoint: its history equals an uninterrupted
+    point's bit for bit, and the computed steps are kept."""
+    import numpy as np
+
+    from magfem.mechanics.columns import read_history
+    from magfem.sweep import run_sweep
+    from magfem.sweep.engines import PointJob, record_point
+
+    case = _case_file(tmp_path)
+    params = ["field.sources.0.waveform.frequency=100Hz"]
+    run_sweep(case, params, tmp_path / "ref", echo=None)
+    (ref_dir,) = (tmp_path / "ref" / "points").iterdir()
+    reference = read_history(ref_dir / "history.csv")[0]
+    fprint = fingerprint(case, ())
+    (point,) = build_points([parse_param(p) for p in params], fprint)
+    out = tmp_path / "failed"
+    pdir = out / "points" / point.ident
+    sets = [*point.overrides(), "time.end=1ms", "output.checkpoint_every=4"]
+    cmd = ["run", str(case), "--out", str(pdir), "-q"]
+    assert main([*cmd, *(a for item in sets for a in ("--set", item))]) == 0
+    job = PointJob(point.ident, point.params, [], str(pdir), fprint, 1)
+    assert record_point(job, 70, 1.0) == "failed"
+    assert run_sweep(case, params, out, echo=None).records[0]["status"] == "failed"
+    result = run_sweep(case, params, out, echo=None, retry_failed=True)
+    assert result.records[0]["status"] == "done"
+    assert f"resume {point.ident} from its checkpoint" in (out / "sweep.log").read_text()
+    history = read_history(pdir / "history.csv")[0]
+    for key, column in reference.items():
+        np.testing.assert_array_equal(history[key], column, err_msg=key)
+
+
 def test_history_summary_reads_first_self_touch(tmp_path):
     """First self-touch = time of the first sample with a positive self-contact force."""
     from magfem.sweep import summarize_history

@@ -110,15 +110,26 @@ def record_point(job: PointJob, returncode: int, wall: float) -> str | None:
     return status
 
 
+def _failed(pdir: Path) -> bool:
+    """The point's ``point.json`` records a failed run (rerun by ``--retry-failed``)."""
+    try:
+        return bool(
+            json.loads((pdir / "point.json").read_text(encoding="utf-8"))["status"] == "failed"
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
 def attempts(job: PointJob) -> list[list[str]]:
     """The commands that run a point, in order: the point continues from its checkpoint
-    when a stopped or killed run left one (``magfem run --resume``: a point's folder is
-    named by its parameters and base case, so the checkpoint is of the same run), then the
-    fresh run, tried only when the resume is refused (exit status ``EXIT_INPUT``, e.g. the
-    checkpoint was written by another number of ranks). A point recorded as failed (rerun
-    by ``--retry-failed``) starts afresh."""
+    when a stopped, killed or failed run left one (``magfem run --resume``: a point's folder
+    is named by its parameters and base case, so the checkpoint is of the same run), then
+    the fresh run, tried only when the resume is refused (exit status ``EXIT_INPUT``, e.g.
+    the checkpoint was written by another number of ranks). A failed point (rerun by
+    ``--retry-failed``) thus keeps the steps it had computed; to rerun it from the start,
+    remove its folder."""
     pdir = Path(job.point_dir)
-    left = not (pdir / "point.json").exists() and any(
+    left = (not (pdir / "point.json").exists() or _failed(pdir)) and any(
         (pdir / name / "meta.json").is_file() for name in (CHECKPOINT, f"{CHECKPOINT}.old")
     )
     if not left:
