@@ -247,6 +247,22 @@ def test_a_failed_point_retried_continues_from_its_checkpoint(tmp_path):
         np.testing.assert_array_equal(history[key], column, err_msg=key)
 
 
+def test_a_points_wall_time_counts_its_stopped_runs(tmp_path):
+    """A point stopped twice (5 s and 3 s) and then finished (2 s) records 10 s: the cost of
+    a study in the report includes the runs that a stop interrupted."""
+    from magfem.sweep.engines import STOPPED_WALL, PointJob, record_point
+
+    (tmp_path / "history.csv").write_text("time,angle_arm\n0.0,0.0\n0.001,0.1\n", encoding="utf-8")
+    job = PointJob("p0000_x", {"a": "1"}, [], str(tmp_path), "f", 1)
+    assert record_point(job, 143, 5.0) is None
+    assert record_point(job, -9, 3.0) is None
+    assert not (tmp_path / "point.json").exists()
+    assert record_point(job, 0, 2.0) == "done"
+    record = json.loads((tmp_path / "point.json").read_text(encoding="utf-8"))
+    assert record["wall_s"] == pytest.approx(10.0)
+    assert not (tmp_path / STOPPED_WALL).exists()
+
+
 def test_history_summary_reads_first_self_touch(tmp_path):
     """First self-touch = time of the first sample with a positive self-contact force."""
     from magfem.sweep import summarize_history

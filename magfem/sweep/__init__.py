@@ -33,7 +33,8 @@ process has exited, so a sweep killed at any moment leaves every point
 either finished or not started/partial, and running the same command again
 computes only what is missing. A point whose run failed (exit status ≠ 0,
 e.g. Newton failure) is also recorded and not redone, unless
-``--retry-failed`` (from its checkpoint when it left one). Every start and end is appended to ``DIR/sweep.log``.
+``--retry-failed`` (from its checkpoint when it left one). Every start and
+end is appended to ``DIR/sweep.log``.
 
 Outputs: ``DIR/summary.csv`` (one row per point: parameters as given and in
 SI, status, wall time, and the point's summary scalars) and

@@ -87,26 +87,38 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+STOPPED_WALL = "stopped_wall.json"
+"""In a point's folder: the wall time (s) its stopped runs spent, until it is recorded."""
+
+
 def record_point(job: PointJob, returncode: int, wall: float) -> str | None:
     """Write the point's ``point.json`` after its process ended; its status, or None.
 
     A process ended by a signal (negative status, or 130/143 from magfem's own
-    SIGINT/SIGTERM handling) leaves the point unfinished: no record, None.
+    SIGINT/SIGTERM handling) leaves the point unfinished: no record, None; its
+    ``wall`` is kept in :data:`STOPPED_WALL`, and the record's ``wall_s`` is
+    the wall time of every run of the point, the stopped ones included.
     """
-    if returncode < 0 or returncode in (130, 143):
-        return None
     pdir = Path(job.point_dir)
+    try:
+        earlier = float(json.loads((pdir / STOPPED_WALL).read_text(encoding="utf-8"))["wall_s"])
+    except (OSError, ValueError, KeyError, TypeError):
+        earlier = 0.0
+    if returncode < 0 or returncode in (130, 143):
+        write_json(pdir / STOPPED_WALL, {"wall_s": earlier + wall})
+        return None
     status = "done" if returncode == 0 else "failed"
     record = {
         "params": job.params,
         "fingerprint": job.fingerprint,
         "status": status,
         "returncode": returncode,
-        "wall_s": wall,
+        "wall_s": earlier + wall,
         "ranks": job.ranks,
         "summary": summarize_history(pdir),
     }
     write_json(pdir / "point.json", record)
+    (pdir / STOPPED_WALL).unlink(missing_ok=True)
     return status
 
 
