@@ -18,7 +18,7 @@ from magfem.geometry.outline import Outline
 from magfem.geometry.robot_mesh import create_robot_mesh
 from magfem.geometry.shapes import SHAPES, Shape
 from magfem.geometry.shapes.base import register
-from magfem.geometry.spec import STRIP_SHAPES, MeshSpec, RobotSpec
+from magfem.geometry.spec import STRIP_SHAPES, MeshSpec, RobotSpec, check_mesh_for_robot
 
 THICKNESS = 1e-4
 
@@ -166,6 +166,11 @@ def test_mesh_spec_checks():
     with pytest.raises(CaseError, match="uniformly") as err:
         meshspec(size="0.1 mm", root_size="0.05 mm", model="rod")
     assert err.value.key == "mesh.root_size"
+    free = robot("star", clamp_radius=0)
+    with pytest.raises(CaseError, match="has none") as err:
+        check_mesh_for_robot(free, meshspec(size="0.5 mm", root_size="0.1 mm", model="surface"))
+    assert err.value.key == "mesh.root_size"
+    check_mesh_for_robot(robot("rectangle"), meshspec(size="0.5 mm", root_size="0.1 mm"))
     with pytest.raises(CaseError, match="element"):
         meshspec(size="0.1 mm", element="wedge")  # prism solids: no facet tags in dolfinx 0.11
     with pytest.raises(CaseError) as err:

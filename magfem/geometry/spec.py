@@ -251,7 +251,8 @@ def check_mesh_for_robot(robot: RobotSpec, mesh: MeshSpec) -> None:
 
     Raises:
         CaseError: ``mesh.size`` or ``size_across`` larger than the smallest feature (the
-            shortest arm for the rod), or a ``strip`` model for a shape without uniform width.
+            shortest arm for the rod), a ``strip`` model for a shape without uniform width,
+            or ``root_size`` for a robot without a clamp patch.
     """
     if mesh.model == "auto":  # checked again for the model chosen (magfem.accuracy)
         return
@@ -277,4 +278,10 @@ def check_mesh_for_robot(robot: RobotSpec, mesh: MeshSpec) -> None:
             "mesh.model",
             mesh.model,
             f"'strip' needs a uniform-width shape ({', '.join(STRIP_SHAPES)}), not '{robot.shape}'",
+        )
+    if mesh.root_size is not None and not robot.params.outline().clamped:
+        raise CaseError(
+            "mesh.root_size",
+            mesh.root_size,
+            f"refines where the arms leave the clamp patch, and '{robot.shape}' has none",
         )
