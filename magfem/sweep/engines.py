@@ -87,6 +87,15 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+def read_json(path: Path) -> dict[str, Any] | None:
+    """The JSON object in ``path``, or None when it is missing or unreadable."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 STOPPED_WALL = "stopped_wall.json"
 """In a point's folder: the wall time (s) its stopped runs spent, until it is recorded."""
 
@@ -100,10 +109,7 @@ def record_point(job: PointJob, returncode: int, wall: float) -> str | None:
     the wall time of every run of the point, the stopped ones included.
     """
     pdir = Path(job.point_dir)
-    try:
-        earlier = float(json.loads((pdir / STOPPED_WALL).read_text(encoding="utf-8"))["wall_s"])
-    except (OSError, ValueError, KeyError, TypeError):
-        earlier = 0.0
+    earlier = float((read_json(pdir / STOPPED_WALL) or {}).get("wall_s", 0.0))
     if returncode < 0 or returncode in (130, 143):
         write_json(pdir / STOPPED_WALL, {"wall_s": earlier + wall})
         return None
@@ -124,12 +130,7 @@ def record_point(job: PointJob, returncode: int, wall: float) -> str | None:
 
 def _failed(pdir: Path) -> bool:
     """The point's ``point.json`` records a failed run (rerun by ``--retry-failed``)."""
-    try:
-        return bool(
-            json.loads((pdir / "point.json").read_text(encoding="utf-8"))["status"] == "failed"
-        )
-    except (OSError, ValueError, KeyError, TypeError):
-        return False
+    return (read_json(pdir / "point.json") or {}).get("status") == "failed"
 
 
 def attempts(job: PointJob) -> list[list[str]]:

@@ -20,6 +20,7 @@ from magfem.sweep.engines import (
     CLUSTER_ENGINES,
     ENGINES,
     PointJob,
+    read_json,
     record_point,
     run_attempts,
     run_on_cluster,
@@ -41,14 +42,7 @@ class SweepResult:
 
 
 def _read_record(point_dir: Path) -> dict[str, Any] | None:
-    path = point_dir / "point.json"
-    if not path.is_file():
-        return None
-    try:
-        record: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return None
-    return record
+    return read_json(point_dir / "point.json")
 
 
 def _mpirun() -> str:
