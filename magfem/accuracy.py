@@ -18,7 +18,10 @@ a curvature that is uniform along the arm). That asks for
 Measured (docs/verification.md §6b, §6e), 7.5 mm arms in 2 mT (ℓ = 0.86 mm),
 rod − shell while the arm rises: 0.25 mm wide (b/ℓ = 0.29) within 0.15°,
 0.5 mm (0.58) 0.04°, 1 mm (1.16) 0.49°, 2 mm (2.3) 1.56°. ``auto`` picks the
-rod where it is adequate and the shell (``surface``) elsewhere.
+rod where it is adequate and the shell (``surface``) elsewhere; the
+``[mesh]`` keys the chosen model does not use (:data:`NOT_USED_BY`: the
+shell's sizes for the rod, the layers for the shell) go back to their
+defaults, and the line that says what was chosen names them.
 
 **The accuracy target** (``[solver] accuracy = "1 deg"``,
 :func:`resolve_accuracy`) chooses the model (the ``auto`` rule above unless
@@ -53,12 +56,13 @@ from magfem.geometry.beam import BeamOutline
 from magfem.geometry.robot_mesh import SHELL_CLAMP_INSET
 from magfem.geometry.robots import outline_of
 from magfem.geometry.rod_mesh import arm_widths, rod_layout
-from magfem.geometry.spec import check_mesh_for_robot
+from magfem.geometry.spec import MeshSpec, check_mesh_for_robot
 from magfem.units import parse_angle
 
 __all__ = [
     "BEND_LENGTH",
     "BEND_TIME",
+    "NOT_USED_BY",
     "SAME_SCALE",
     "SLENDERNESS",
     "TABLES",
@@ -139,10 +143,35 @@ def resolve_model(case: Case) -> tuple[Case, str | None]:
         return case, None
     verdict = rod_adequacy(case)
     chosen = "rod" if verdict.adequate else "surface"
-    mesh = dataclasses.replace(case.mesh, model=chosen)
+    mesh, dropped = _for_model(case.mesh, chosen)
     check_mesh_for_robot(case.robot, mesh)
     line = f"mesh.model = auto: {chosen} ({'rod adequate' if verdict.adequate else 'no rod'}: "
-    return dataclasses.replace(case, mesh=mesh), line + verdict.reason + ")"
+    line += verdict.reason + ")"
+    if dropped:
+        line += f"; not used by the {chosen}: " + ", ".join(dropped)
+    return dataclasses.replace(case, mesh=mesh), line
+
+
+NOT_USED_BY = {
+    "rod": ("tip_size", "root_size", "size_across", "turn_axis"),
+    "surface": ("layers",),
+}
+"""``[mesh]`` keys that ``auto`` resets to their defaults when it picks the model: a case
+that leaves the model open may set them for the other one."""
+
+
+def _for_model(mesh: MeshSpec, chosen: str) -> tuple[MeshSpec, list[str]]:
+    """(``mesh`` with model ``chosen`` and its unused keys at their defaults, ``key = value``
+    of each key reset)."""
+    defaults = {f.name: f.default for f in dataclasses.fields(MeshSpec)}
+    dropped = {
+        key: getattr(mesh, key)
+        for key in NOT_USED_BY[chosen]
+        if getattr(mesh, key) != defaults[key]
+    }
+    reset = {key: defaults[key] for key in dropped}
+    shown = [_show(f"mesh.{key}", value) for key, value in dropped.items()]
+    return dataclasses.replace(mesh, model=chosen, **reset), shown
 
 
 # --- the accuracy target ([solver] accuracy) ---------------------------------------------------

@@ -44,6 +44,25 @@ def test_narrow_arm_takes_the_rod():
     assert why is not None and "auto: rod" in why
 
 
+def test_auto_resets_the_keys_the_chosen_model_does_not_use():
+    """A case that leaves the model open may size a shell mesh: the rod drops those keys
+    (it would refuse them) and says so; the shell drops the solid's layers."""
+    case = narrow_case(0.25e-3)
+    mesh = dataclasses.replace(case.mesh, tip_size=0.1e-3, size_across=0.2e-3)
+    resolved, why = resolve_model(dataclasses.replace(case, mesh=mesh))
+    assert resolved.mesh.model == "rod"
+    assert resolved.mesh.tip_size is None and resolved.mesh.size_across is None
+    assert why is not None and why.endswith(
+        "not used by the rod: mesh.tip_size = 0.1 mm, mesh.size_across = 0.2 mm"
+    )
+    trapezoid = load_case(DEFAULT_CASE)
+    mesh = dataclasses.replace(trapezoid.mesh, model="solid", layers=2)
+    mesh = dataclasses.replace(mesh, model="auto")
+    resolved, why = resolve_model(dataclasses.replace(trapezoid, mesh=mesh))
+    assert resolved.mesh.model == "surface" and resolved.mesh.layers == 1
+    assert why is not None and why.endswith("not used by the surface: mesh.layers = 2")
+
+
 def test_width_against_bend_length_decides():
     """Just below and above WIDTH_PER_BEND_LENGTH ℓ (slender either way)."""
     mat = narrow_case(1e-3).material

@@ -180,7 +180,10 @@ class MeshSpec:
     it like the shell: ``bonded`` less 0.41 thicknesses inside the patch's
     free edges, ``rigid`` at the edge (docs/mechanics.md, "Rod"). ``auto``
     picks the model for the case (the rod where it is adequate, else the
-    shell; ``magfem check`` says which and why).
+    shell; ``magfem check`` says which and why); the keys the chosen model does
+    not use (the rod: ``tip_size``, ``root_size``, ``size_across``,
+    ``turn_axis``; the shell: ``layers``) go back to their defaults, and that
+    line names them.
     """
 
     size: float = quantity(
