@@ -11,7 +11,7 @@ import pytest
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.report import build_report
+from magfem.report import build_report, packed_wall
 from magfem.study import load_studies
 from magfem.sweep import build_points, fingerprint, parse_param
 
@@ -41,15 +41,19 @@ def test_report_tabulates_finished_points_and_says_what_is_missing(tmp_path, rep
         build_report(tmp_path / "out", only=["no-such-scene"], docs=tmp_path / "docs")
 
 
-def _write_points(out: Path, study, summaries: list[dict[str, float]]) -> None:
-    """Finished points of ``study`` under ``out`` with the given summaries, in point order."""
+def _write_points(
+    out: Path, study, summaries: list[dict[str, float]], walls: list[float] | None = None
+) -> None:
+    """Finished points of ``study`` under ``out`` with the given summaries and wall times
+    (default 3 s each), in point order."""
     fprint = fingerprint(Path(study.case), study.sets)
     points = build_points([parse_param(p) for p in study.params], fprint, paired=study.paired)
     assert len(points) == len(summaries)
-    for pt, summary in zip(points, summaries, strict=True):
+    walls = walls or [3.0] * len(points)
+    for pt, summary, wall in zip(points, summaries, walls, strict=True):
         point = out / study.ident / "points" / pt.ident
         point.mkdir(parents=True)
-        record = {"params": pt.params, "status": "done", "wall_s": 3.0, "fingerprint": fprint}
+        record = {"params": pt.params, "status": "done", "wall_s": wall, "fingerprint": fprint}
         (point / "point.json").write_text(json.dumps(record | {"summary": summary}))
 
 
@@ -382,3 +386,45 @@ def test_report_animation_shows_the_last_finished_runs_motion(tmp_path, repo, mo
     assert gif.read_bytes() == b"GIF89a" + points[-1].name.encode()
     (folder / "probe.toml").write_text(text.replace("animation = true\n", ""), encoding="utf-8")
     assert "![probe motion]" not in build_report(tmp_path / "out", **kwargs).read_text()
+
+
+def test_packed_wall_starts_each_run_on_the_first_free_worker():
+    """Runs in order on the first worker to free: the makespan of list scheduling."""
+    assert packed_wall([], 2) == 0.0
+    assert packed_wall([1.0, 1.0, 1.0, 1.0], 2) == 2.0
+    assert packed_wall([2.0, 2.0, 1.0], 2) == 3.0  # the third waits for a worker
+    assert packed_wall([3.0, 1.0, 1.0, 1.0], 2) == 3.0  # the short ones share the other
+    assert packed_wall([3.0, 1.0], 1) == 4.0
+    with pytest.raises(ValueError, match="jobs must be >= 1"):
+        packed_wall([1.0], 0)
+
+
+def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, repo, monkeypatch):
+    """The page sums every run's wall time and packs each scene's runs on two cores; a scene
+    kept from the page (``only`` another) counts with the wall times its table shows."""
+    monkeypatch.chdir(repo)
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    head = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
+    for name in ("probe", "other"):
+        body = 'params = ["mesh.size=0.2mm,0.1mm,0.05mm"]\n'
+        (folder / f"{name}.toml").write_text(head + body, encoding="utf-8")
+    out = tmp_path / "out"
+    probe, other = sorted(load_studies(folder), key=lambda s: s.ident != "probe")
+    summaries = [{"max_angle_arm": 1.0}] * 3
+    _write_points(out, probe, summaries, [7200.0, 3600.0, 3600.0])  # 4 h; 2 h on two cores
+    _write_points(out, other, summaries, [1800.0, 1800.0, 3600.0])  # 2 h; 1.5 h on two
+    kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
+    line = (
+        "All runs: 6.0 h of one core (the wall times above, summed). `magfem report --run "
+        "--jobs 2` runs the scenes one after another, 2 runs at a time: about 3.5 h on 2 cores"
+    )
+    assert line + " at these wall times" in build_report(out, **kwargs).read_text()
+    for point in (out / "other" / "points").iterdir():  # its runs now live elsewhere
+        (point / "point.json").unlink()
+    kept = build_report(out, only=["probe"], **kwargs).read_text()
+    assert line + " at these wall times" in kept
+    assert "more once the unfinished runs are done" not in kept
+    (point / "point.json").write_text("{}")  # a run without a record: not done
+    missing = build_report(out, **kwargs).read_text()
+    assert "more once the unfinished runs are done." in missing
