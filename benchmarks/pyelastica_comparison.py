@@ -10,8 +10,9 @@ millisecond; error: its largest difference over 0–25 ms from the same
 code's finest run (each code's converged reference).
 
 magfem: ``[mesh] model = "rod"`` (``root = "rigid"``, ``rod_bending =
-"beam"``), implicit generalized-α (ρ∞ = 0.5), steps of Δt (cut where Newton
-fails). Every level but the reference runs as a user after speed would run it
+"beam"``), implicit generalized-α (ρ∞ = 0.5; ``--rho-inf`` sets it for every
+level and the reference), steps of Δt (cut where Newton fails). Every level
+but the reference runs as a user after speed would run it
 (:data:`FAST`): the kept Jacobian (``[solver] reuse_jacobian``), Newton to
 1e-4 of the predictor's residual (``rtol``; default 1e-6) and a history row
 every ms (``[output] history_interval``), the samples compared, as
@@ -123,6 +124,8 @@ Together they move no level's error by more than 0.001° but the two coarsest, 7
 up to 0.6° (the tables with and without ``--plain``; ``--split``; docs/verification.md 6c)."""
 PLAIN: dict[str, dict[str, Any]] = {"solver": {}, "output": {}}
 """magfem's defaults (the reference, ``--plain``)."""
+RHO_INF = {"magfem": 0.5}
+"""magfem's spectral radius at infinity, every level and the reference (``--rho-inf``)."""
 
 
 def magfem_case(
@@ -147,7 +150,7 @@ def magfem_case(
         root="rigid",
         mesh_options={"rod_bending": "beam"},
         field=vc.DRIVE if field is None else field,
-        time={"end": end, "step": step, "rho_inf": 0.5},
+        time={"end": end, "step": step, "rho_inf": RHO_INF["magfem"]},
         solver={"degree": degree, **settings["solver"]},
         loads=damping,
     )
@@ -490,7 +493,7 @@ def gap_line(magfem_reference: np.ndarray, elastica_reference: np.ndarray) -> st
 
 def undamped() -> None:
     """The undamped comparison (§6c's first table)."""
-    report = Report(HEADER, "|---|---|---|---|---|")
+    report = Report(f"magfem's rho_inf {RHO_INF['magfem']:g}", HEADER, "|---|---|---|---|---|")
     magfem, elastica, a, b = table(report, 0.0, MAGFEM_LEVELS, ELASTICA_LEVELS)
     report.add("")
     ratios(report, magfem, elastica)
@@ -550,7 +553,13 @@ def main() -> None:
     parser.add_argument(
         "--plain", action="store_true", help="magfem's levels with its defaults, not FAST's"
     )
+    parser.add_argument(
+        "--rho-inf", type=float, default=0.5, help="magfem's generalized-alpha rho_inf (0-1)"
+    )
     args = parser.parse_args()
+    if not 0.0 <= args.rho_inf <= 1.0:
+        parser.error(f"--rho-inf must lie in [0, 1], got {args.rho_inf}")
+    RHO_INF["magfem"] = args.rho_inf
     if args.plain:
         FAST.update(PLAIN)
     beta = args.loss_tangent / (2 * np.pi * args.frequency) if args.damped else 0.0
