@@ -311,7 +311,7 @@ def _records(
     for rec in records:  # summaries from the histories: new scalars for old runs too
         point = sweep_dir / "points" / str(rec.get("point", ""))
         if (point / "history.csv").is_file():
-            rec["summary"] = summarize_history(point, study.window_ends())
+            rec["summary"] = summarize_history(point, study.window_ends(), study.hold)
     if records:  # the table and plot of the refreshed summaries
         names = [parse_param(p)[0] for p in study.params]
         write_summary(records, names, sweep_dir)
@@ -423,6 +423,11 @@ def _setup_lines(study: Study) -> list[str]:
         out.append(f"- resolution (the case with the study's fixed settings): {resolution}")
     if notes["missing"]:
         out.append(f"- {' '.join(notes['missing'])}")
+    if study.hold:
+        out.append(
+            f"- largest angles: the largest held for at least {study.hold * 1e3:g} ms (the "
+            "study's `hold`); a higher value over fewer consecutive samples is not counted"
+        )
     if study.notes:
         out.append(f"- {study.notes}")
     if study.uncertainty:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from magfem.config import MISSING, CaseError, build_fields, flag, integer, option
+from magfem.config import MISSING, CaseError, build_fields, flag, integer, option, quantity
 from magfem.sweep import build_points, parse_param
 from magfem.units import UnitError, parse_quantity
 
@@ -99,6 +99,14 @@ class Study:
         doc="LABEL=TIME texts (e.g. 40Hz=12.5ms): each adds every summary scalar over the "
         "history up to TIME as <scalar>@LABEL (max_folds_arm@40Hz), for columns, compare and "
         "the sweep summary; nan where a run ended before TIME",
+    )
+    hold: float = quantity(
+        0.0,
+        "s",
+        ge=0,
+        doc="the largest angles of the table are those held for at least this long (e.g. "
+        "0.1ms: an impact's flick of the tip over a step or two is not counted); 0: the "
+        "largest sample",
     )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(

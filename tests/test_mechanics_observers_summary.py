@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from magfem.mechanics.observers.summary import history_summary, summarize_cargo
+from magfem.mechanics.observers.summary import held_max, history_summary, summarize_cargo
 
 
 def test_cargo_held_time_first_held_and_released_from_the_held_column():
@@ -32,3 +32,45 @@ def test_cargo_never_held_or_never_released():
     kept = summarize_cargo({"time": t, "cargo_a_held": (t >= 0.5).astype(float)})
     assert kept["cargo_a_first_held"] == 0.5 and math.isnan(kept["cargo_a_released"])
     assert kept["cargo_a_held_time"] == pytest.approx(0.5)
+
+
+def test_held_max_of_a_densely_sampled_cosine_is_a_cos_of_half_the_hold():
+    """A cos ωt keeps |θ| >= A cos(ω τ/2) over the τ around each peak and no more: the
+    closed form, to the sampling's error (spacing 1 µs at ω τ/2 = 0.2)."""
+    t = np.arange(0.0, 0.2, 1e-6)
+    omega, amplitude, hold = 2 * math.pi * 20.0, 3.0, 2 * 0.2 / (2 * math.pi * 20.0)
+    held = held_max(t, amplitude * np.cos(omega * t), hold)
+    exact = amplitude * math.cos(omega * hold / 2)
+    assert held == pytest.approx(exact, abs=amplitude * omega * 1e-6)
+    assert held_max(t, amplitude * np.cos(omega * t)) == pytest.approx(amplitude)  # hold 0
+
+
+def test_held_max_drops_a_spike_shorter_than_the_hold_and_keeps_a_plateau():
+    """A one-sample flick of 40 above a plateau at 300 held 0.2 ms: the plateau, not the
+    flick; blank samples are skipped; no span of the hold's length gives nan."""
+    t = np.arange(0.0, 1e-3, 2.5e-5)
+    angle = np.where((t > 0.3e-3) & (t < 0.5e-3 + 1e-9), 300.0, 100.0)
+    spike = angle.copy()
+    spike[5] = 340.0
+    assert held_max(t, spike) == 340.0
+    assert held_max(t, spike, 0.1e-3) == 300.0
+    assert held_max(t, spike, 0.25e-3) == 100.0  # longer than the plateau
+    gappy = spike.copy()
+    gappy[14] = np.nan
+    assert held_max(t, gappy, 0.1e-3) == 300.0
+    assert math.isnan(held_max(t, spike, 2e-3))
+    with pytest.raises(ValueError, match="hold must be >= 0"):
+        held_max(t, spike, -1e-6)
+
+
+def test_history_summary_holds_the_largest_angles_in_every_window():
+    """``hold`` applies to the whole run's and each period's largest angle alike."""
+    t = np.arange(0.0, 0.1 + 1e-9, 2.5e-5)
+    angle = np.radians(60.0) * np.sin(2 * math.pi * 10.0 * t)
+    angle[1000] += np.radians(50.0)  # a flick at the first peak (25 ms)
+    history = {"time": t, "angle_arm": angle}
+    plain = history_summary(history, start=0.0, frequency=10.0)
+    held = history_summary(history, start=0.0, frequency=10.0, hold=1e-4)
+    assert math.degrees(plain["max_angle_halfperiod_arm"]) > 100.0
+    for key in ("max_angle_arm", "max_angle_halfperiod_arm", "max_angle_1period_arm"):
+        assert math.degrees(held[key]) == pytest.approx(60.0, abs=0.01), key

@@ -24,6 +24,7 @@ GOOD = {
     "figure": ["com_x"],
     "animation": True,
     "windows": ["40Hz=12.5ms", "first_touch=3 ms"],
+    "hold": 1e-4,
     "notes": "a note",
     "pending": "why not yet",
     "unresolved": "why not a prediction",
@@ -57,6 +58,13 @@ def test_a_study_with_every_key_round_trips(tmp_path, repo, monkeypatch):
     assert to_table(study) == GOOD
     (tmp_path / "again").mkdir()
     assert load_study(_write(tmp_path / "again", "probe-1", to_table(study))) == study
+
+
+def test_hold_is_a_duration_with_its_unit(tmp_path, repo, monkeypatch):
+    monkeypatch.chdir(repo)
+    assert load_study(_write(tmp_path, "probe", GOOD | {"hold": "0.1 ms"})).hold == 1e-4
+    no_hold = {k: v for k, v in GOOD.items() if k != "hold"}
+    assert load_study(_write(tmp_path, "probe", no_hold)).hold == 0.0
 
 
 def test_text_keys_are_one_paragraph(tmp_path, repo, monkeypatch):
@@ -95,6 +103,8 @@ def test_text_keys_are_one_paragraph(tmp_path, repo, monkeypatch):
             "compare_also[0] = 'time.end': must name another of params: field.sources.0",
         ),
         ("probe", {"order": -1}, "order = -1: must be >= 0"),
+        ("probe", {"hold": "-1 ms"}, "hold = '-1 ms': must be >= 0"),
+        ("probe", {"hold": "1 mm"}, "hold = '1 mm': "),
         ("probe", {"windows": ["12.5ms"]}, "windows[0] = '12.5ms': expected LABEL=TIME"),
         ("probe", {"windows": ["a b=1ms"]}, "windows[0] = 'a b=1ms': expected LABEL=TIME"),
         ("probe", {"windows": ["a=1ms", "a=2ms"]}, "windows[1] = 'a=2ms': the label 'a' is"),

@@ -49,14 +49,15 @@ def _lookup(table: Any, name: str) -> Any:
 
 
 def summarize_history(
-    run_dir: Path, windows: Mapping[str, float] | None = None
+    run_dir: Path, windows: Mapping[str, float] | None = None, hold: float = 0.0
 ) -> dict[str, float]:
     """Summary scalars (module docstring) of a run directory's ``history.csv``.
 
     Needs ``history.csv`` and ``case.resolved.toml`` (for t₀, f, μ); returns {}
     when the history is missing or empty. ``windows``: label -> end time T (s);
     each adds the summary of the rows up to T as ``<key>@<label>``
-    (:func:`window_summary`).
+    (:func:`window_summary`). ``hold`` (s): the largest angles are those held that
+    long (:func:`magfem.mechanics.observers.summary.held_max`).
     """
     hist = run_dir / "history.csv"
     if not hist.is_file():
@@ -71,9 +72,9 @@ def summarize_history(
     t0 = float(resolved.get("time", {}).get("start", t[0]))
     freq = _frequency(resolved)
     out: dict[str, float] = {"end_time": float(t[-1]), "steps": float(len(t) - 1)}
-    out |= history_summary(cols, start=t0, frequency=freq)
+    out |= history_summary(cols, start=t0, frequency=freq, hold=hold)
     for label, end in (windows or {}).items():
-        out |= window_summary(cols, label, end, start=t0, frequency=freq)
+        out |= window_summary(cols, label, end, start=t0, frequency=freq, hold=hold)
     return out
 
 
@@ -88,8 +89,10 @@ def window_summary(
     *,
     start: float,
     frequency: float | None,
+    hold: float = 0.0,
 ) -> dict[str, float]:
-    """The summary of the history's rows up to ``end`` (s), each key as ``<key>@<label>``.
+    """The summary of the history's rows up to ``end`` (s), each key as ``<key>@<label>``
+    (``hold``: as :func:`summarize_history`).
 
     What the run would have summarised had it stopped at ``end``: for a square
     wave's held first direction, the first lift of every frequency whose half
@@ -100,7 +103,10 @@ def window_summary(
     rows = t <= end * (1.0 + WINDOW_END_TOLERANCE)
     rows[0] = True  # the keys, even of a window that ends before the first row
     part = history_summary(
-        {k: np.asarray(v)[rows] for k, v in history.items()}, start=start, frequency=frequency
+        {k: np.asarray(v)[rows] for k, v in history.items()},
+        start=start,
+        frequency=frequency,
+        hold=hold,
     )
     complete = t[-1] >= end * (1.0 - WINDOW_END_TOLERANCE) and t[0] <= end
     return {f"{key}@{label}": value if complete else math.nan for key, value in part.items()}

@@ -29,6 +29,7 @@ __all__ = [
     "PARTIAL_SPREAD",
     "bending_speed",
     "first_crossing",
+    "held_max",
     "history_summary",
     "max_over_window",
     "summarize_cargo",
@@ -178,14 +179,19 @@ def _failure_indicators(
 
 
 def history_summary(
-    history: Mapping[str, npt.NDArray[np.float64]], *, start: float, frequency: float | None
+    history: Mapping[str, npt.NDArray[np.float64]],
+    *,
+    start: float,
+    frequency: float | None,
+    hold: float = 0.0,
 ) -> dict[str, float]:
     """Summary scalars of a run's history columns (the run's own and the sweep's summary).
 
-    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad),
+    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad; with
+    ``hold`` > 0 (s) the largest |θ| held that long, :func:`held_max`),
     ``final_angle_<arm>`` and, for a periodic drive of ``frequency`` (Hz),
     ``max_angle_{halfperiod,1period,2periods}_<arm>`` over [start, start + n/f]
-    (nan when the run ends before the window does); ``max_strain``,
+    (the same, nan when the run ends before the window does); ``max_strain``,
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
     force; nan if none), ``max_self_contact_force`` (N) and, with inelastic
@@ -200,13 +206,13 @@ def history_summary(
         if not key.startswith("angle_"):
             continue
         arm = key[len("angle_") :]
-        out[f"max_angle_{arm}"] = float(np.nanmax(np.abs(values)))
+        out[f"max_angle_{arm}"] = held_max(t, values, hold)
         out[f"final_angle_{arm}"] = float(values[-1])
         if frequency:
             for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
                 end = start + n / frequency
                 out[f"max_angle_{label}_{arm}"] = (
-                    max_over_window(t, values, start, end)
+                    max_over_window(t, values, start, end, hold)
                     if _window(t, start, end) is not None
                     else math.nan
                 )
@@ -239,11 +245,44 @@ def _window(times: npt.NDArray[np.float64], t0: float, t1: float) -> npt.NDArray
 
 
 def max_over_window(
-    times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], t0: float, t1: float
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    t0: float,
+    t1: float,
+    hold: float = 0.0,
 ) -> float:
-    """max |value| over t0 <= t <= t1 (nan when no sample lies there)."""
+    """:func:`held_max` of the samples with t0 <= t <= t1 (nan when no sample lies there)."""
     mask = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
-    return float(np.nanmax(np.abs(values[mask]))) if np.any(mask) else float("nan")
+    return held_max(times[mask], values[mask], hold) if np.any(mask) else float("nan")
+
+
+def held_max(
+    times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], hold: float = 0.0
+) -> float:
+    """The largest |value| held for at least ``hold`` (s): the largest a such that |value|
+    >= a at every sample of some run of samples t_i .. t_j with t_j − t_i >= hold.
+
+    ``hold`` = 0 gives max |value|. A peak of a smooth history loses little (a cos ωt
+    sampled densely: A cos(ω hold/2)); a spike shorter than ``hold`` is not counted. Blank
+    samples (nan) are skipped; nan when no run of samples spans ``hold``.
+    """
+    t = np.asarray(times, dtype=float)
+    a = np.abs(np.asarray(values, dtype=float))
+    if hold < 0.0 or not math.isfinite(hold):
+        raise ValueError(f"hold must be >= 0 and finite, got {hold!r} s")
+    if a.size == 0 or np.all(np.isnan(a)):
+        return math.nan
+    if hold == 0.0:
+        return float(np.nanmax(a))
+    ends = np.searchsorted(t, t + hold * (1.0 - 1e-12), side="left")
+    best = -math.inf
+    for i, j in enumerate(ends):
+        if j >= t.size:
+            break
+        span = a[i : j + 1]
+        if not np.all(np.isnan(span)):
+            best = max(best, float(np.nanmin(span)))
+    return best if best > -math.inf else math.nan
 
 
 def summarize_cargo(history: Mapping[str, npt.NDArray[np.float64]]) -> dict[str, float]:
