@@ -425,8 +425,9 @@ def _setup_lines(study: Study) -> list[str]:
         out.append(f"- {' '.join(notes['missing'])}")
     if study.hold:
         out.append(
-            f"- largest angles: the largest held for at least {study.hold * 1e3:g} ms (the "
-            "study's `hold`); a higher value over fewer consecutive samples is not counted"
+            f"- `held_angle_*`: the largest angle held for at least {study.hold * 1e3:g} ms "
+            "(the study's `hold`): the `max_angle_*` of the same window without a higher "
+            "value over consecutive samples spanning less than that"
         )
     if study.notes:
         out.append(f"- {study.notes}")

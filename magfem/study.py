@@ -104,9 +104,9 @@ class Study:
         0.0,
         "s",
         ge=0,
-        doc="the largest angles of the table are those held for at least this long (e.g. "
-        "0.1ms: an impact's flick of the tip over a step or two is not counted); 0: the "
-        "largest sample",
+        doc="adds held_angle_* for every max_angle_* summary scalar: the largest angle held "
+        "for at least this long (e.g. 0.1ms: an impact's flick of the tip over a step or two "
+        "is not counted); 0: none",
     )
     notes: str = option("", doc="what the reader needs to read the table")
     pending: str = option(

@@ -431,19 +431,20 @@ def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, rep
 
 
 def test_report_hold_tabulates_the_largest_angle_held_and_says_so(tmp_path, repo, monkeypatch):
-    """A one-sample flick to 120° over a 90° plateau held 1 ms: with ``hold`` the table shows
-    the plateau and the set-up names the hold; without it, the flick."""
+    """A one-sample flick to 120° over a 90° plateau held 1 ms: with ``hold`` the column
+    ``held_angle_arm`` shows the plateau beside the flick and the set-up names the hold;
+    without it the column is blank."""
     monkeypatch.chdir(repo)
-    params = 'params = ["mesh.size=0.1mm,0.05mm"]\n'
+    params = 'params = ["mesh.size=0.1mm,0.05mm"]\ncolumns = ["held_angle_arm"]\n'
     rows = [f"{k * 1e-4:.4f},{math.radians(90.0 if 10 <= k <= 20 else 10.0)}" for k in range(31)]
     rows[15] = f"{15e-4:.4f},{math.radians(120.0)}"
-    for body, shown in ((params, "120.0°"), (params + 'hold = "0.2 ms"\n', "90.0°")):
+    for body, shown in ((params, "–"), (params + 'hold = "0.2 ms"\n', "90.0°")):
         folder = tmp_path / ("held" if "hold" in body else "plain")
         folder.mkdir()
         _probe_page(folder, body, [{}, {}])
         for point in (folder / "out/probe/points").iterdir():
             (point / "history.csv").write_text("time [s],angle_arm [rad]\n" + "\n".join(rows))
         page = _probe_page(folder, body, [])
-        assert f"| 0.1mm | done | 3 | {shown} | 0.003 |" in page
-        said = "- largest angles: the largest held for at least 0.2 ms (the study's `hold`)"
+        assert f"| 0.1mm | done | 3 | {shown} | 120.0° | 0.003 |" in page
+        said = "- `held_angle_*`: the largest angle held for at least 0.2 ms (the study's `hold`)"
         assert (said in page) == ("hold" in body)

@@ -56,8 +56,8 @@ def summarize_history(
     Needs ``history.csv`` and ``case.resolved.toml`` (for t₀, f, μ); returns {}
     when the history is missing or empty. ``windows``: label -> end time T (s);
     each adds the summary of the rows up to T as ``<key>@<label>``
-    (:func:`window_summary`). ``hold`` (s): the largest angles are those held that
-    long (:func:`magfem.mechanics.observers.summary.held_max`).
+    (:func:`window_summary`). ``hold`` > 0 (s) adds the largest angles held that
+    long, ``held_angle_*`` (:func:`magfem.mechanics.observers.summary.history_summary`).
     """
     hist = run_dir / "history.csv"
     if not hist.is_file():

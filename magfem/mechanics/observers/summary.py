@@ -187,11 +187,12 @@ def history_summary(
 ) -> dict[str, float]:
     """Summary scalars of a run's history columns (the run's own and the sweep's summary).
 
-    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad; with
-    ``hold`` > 0 (s) the largest |θ| held that long, :func:`held_max`),
+    Per arm with an ``angle_<arm>`` column: ``max_angle_<arm>`` (max |θ|, rad),
     ``final_angle_<arm>`` and, for a periodic drive of ``frequency`` (Hz),
     ``max_angle_{halfperiod,1period,2periods}_<arm>`` over [start, start + n/f]
-    (the same, nan when the run ends before the window does); ``max_strain``,
+    (nan when the run ends before the window does); with ``hold`` > 0 (s) each
+    ``max_angle_*`` also as ``held_angle_*``, the largest |θ| held that long
+    (:func:`held_max`); ``max_strain``,
     ``max_bending_strain``, ``max_energy_density`` (J/m³) and ``power_density``
     (f ρE, W/m³); ``first_self_touch`` (s, first sample with a self-contact
     force; nan if none), ``max_self_contact_force`` (N) and, with inelastic
@@ -206,13 +207,16 @@ def history_summary(
         if not key.startswith("angle_"):
             continue
         arm = key[len("angle_") :]
-        out[f"max_angle_{arm}"] = held_max(t, values, hold)
         out[f"final_angle_{arm}"] = float(values[-1])
-        if frequency:
+        holds = {"max": 0.0, "held": hold} if hold else {"max": 0.0}
+        for kind, duration in holds.items():
+            out[f"{kind}_angle_{arm}"] = held_max(t, values, duration)
+            if not frequency:
+                continue
             for n, label in ((0.5, "halfperiod"), (1, "1period"), (2, "2periods")):
                 end = start + n / frequency
-                out[f"max_angle_{label}_{arm}"] = (
-                    max_over_window(t, values, start, end, hold)
+                out[f"{kind}_angle_{label}_{arm}"] = (
+                    max_over_window(t, values, start, end, duration)
                     if _window(t, start, end) is not None
                     else math.nan
                 )
