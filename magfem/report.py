@@ -103,7 +103,7 @@ def _unit(key: str) -> str:
         return " (J/m³)"
     if "power_density" in key:
         return " (W/m³)"
-    if key == "end_time":
+    if key == "end_time" or key.startswith("first_"):
         return " (s)"
     if "bending_speed" in key:
         return " (°/ms, 0° → 90°)"

@@ -212,7 +212,10 @@ def test_summary_flags_collapse_and_partial_bending():
     side = quiet | {"tip_lateral_arm": np.array([0.0, 0.4, 0.1])}
     assert summarize_midline(side)["max_tip_lateral_arm"] == 0.4
     assert summarize_midline(side)["collapse"] == 1.0  # fell over sideways
-    assert summarize_midline(quiet | {"tip_lateral_arm": np.full(3, 0.19)})["collapse"] == 0.0
+    assert summarize_midline(side)["first_sideways_arm"] == 1.0  # the first sample past 0.2
+    upright = summarize_midline(quiet | {"tip_lateral_arm": np.full(3, 0.19)})
+    assert upright["collapse"] == 0.0 and math.isnan(upright["first_sideways_arm"])
+    assert "first_sideways_arm" not in out
 
 
 def test_summary_failure_indicators_over_the_first_half_period():

@@ -112,7 +112,9 @@ def summarize_midline(
 
     Per arm (when its columns exist): ``final_active_length_<arm>`` (m),
     ``max_folds_<arm>``, ``max_tip_normal_<arm>``, ``max_spread_<arm>``,
-    ``max_tip_lateral_<arm>`` (3D),
+    ``max_tip_lateral_<arm>`` (3D), ``first_sideways_<arm>`` (s, the first sample
+    whose sideways tip displacement exceeds ``COLLAPSE_TIP_LATERAL``, from where the
+    side-view bending angle is that of a tip turned across its arm; nan if never, 3D),
     ``bending_speed_<arm>`` (rad/s, 0° → 90°, nan if not reached),
     ``field_90_<arm>`` (T, the field needed for 90°: the applied field's
     magnitude |B| at the first instant the arm reaches ``NEAR_90`` = 89°,
@@ -142,6 +144,10 @@ def summarize_midline(
         return out
     for arm in arms:
         out[f"final_active_length_{arm}"] = float(history[f"active_length_{arm}"][-1])
+        if f"tip_lateral_{arm}" in history:
+            lateral = np.nan_to_num(np.asarray(history[f"tip_lateral_{arm}"], dtype=float))
+            sideways = np.flatnonzero(lateral > COLLAPSE_TIP_LATERAL)
+            out[f"first_sideways_{arm}"] = float(t[sideways[0]]) if sideways.size else math.nan
     out |= _failure_indicators(history, arms, np.ones(t.shape, dtype=bool), "")
     if frequency and start is not None:
         rows = _window(t, start, start + 0.5 / frequency)
