@@ -48,6 +48,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from magfem import material
 from magfem.case import Case
@@ -163,7 +164,7 @@ that leaves the model open may set them for the other one."""
 def _for_model(mesh: MeshSpec, chosen: str) -> tuple[MeshSpec, list[str]]:
     """(``mesh`` with model ``chosen`` and its unused keys at their defaults, ``key = value``
     of each key reset)."""
-    defaults = {f.name: f.default for f in dataclasses.fields(MeshSpec)}
+    defaults: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(MeshSpec)}
     dropped = {
         key: getattr(mesh, key)
         for key in NOT_USED_BY[chosen]
