@@ -18,7 +18,7 @@ has them (their runs may live on another machine); for each scene it gives
 * for a scene not run or failed, that its prediction is missing and why;
 
 and, under the summary table, the whole report's cost: the runs' wall times
-summed, and packed on two cores (:func:`packed_wall`) as ``magfem report
+summed, and packed on two cores (:mod:`magfem.report_cost`) as ``magfem report
 --run --jobs 2`` would run them.
 """
 
@@ -34,6 +34,7 @@ from typing import Any
 
 from magfem.case import load_case
 from magfem.config import CaseError
+from magfem.report_cost import cost_line, section_walls
 from magfem.report_figures import animation, scene_figure
 from magfem.study import STUDIES_DIR, Study, load_studies
 from magfem.sweep import (
@@ -47,7 +48,7 @@ from magfem.sweep import (
     write_summary,
 )
 
-__all__ = ["REPORT_JOBS", "build_report", "packed_wall"]
+__all__ = ["build_report"]
 
 
 def _case_notes(path: Path) -> dict[str, list[str]]:
@@ -183,7 +184,7 @@ def build_report(
             row, section = kept[study.ident]
             lines.append(row)
             body += section
-            scene_walls, scene_unfinished = _section_walls(section)
+            scene_walls, scene_unfinished = section_walls(section)
             walls.append(scene_walls)
             unfinished |= scene_unfinished
             continue
@@ -202,64 +203,10 @@ def build_report(
         walls.append([float(r["wall_s"]) for r in records if "wall_s" in r])
         unfinished |= len(done) < len(records) or not records
         body += _scene_section(study, records, reason, sweep_dir, figures, docs)
-    lines += ["", _cost_line(walls, unfinished)]
+    lines += ["", cost_line(walls, unfinished)]
     text = "\n".join([*lines, "", *body]) + "\n"
     path.write_text(text, encoding="utf-8")
     return path
-
-
-REPORT_JOBS = 2
-"""Runs at a time in the cost estimate of the whole report (the two cores it is sized for)."""
-
-
-def packed_wall(walls: Sequence[float], jobs: int) -> float:
-    """Wall time (s) of runs of ``walls`` (s) started in order, each on the first of ``jobs``
-    workers to free (the sweep's local runner)."""
-    if jobs < 1:
-        raise ValueError(f"jobs must be >= 1, got {jobs}")
-    free = [0.0] * jobs
-    for wall in walls:
-        free[free.index(min(free))] += wall
-    return max(free)
-
-
-def _cost_line(walls: list[list[float]], unfinished: bool) -> str:
-    """The whole report's cost: the runs' wall times summed, and packed on two cores scene
-    after scene (``magfem report --run`` runs the scenes one after another)."""
-    total = sum(sum(w) for w in walls)
-    packed = sum(packed_wall(w, REPORT_JOBS) for w in walls)
-    line = (
-        f"All runs: {total / 3600:.1f} h of one core (the wall times above, summed). "
-        f"`magfem report --run --jobs {REPORT_JOBS}` runs the scenes one after another, "
-        f"{REPORT_JOBS} runs at a time: about {packed / 3600:.1f} h on {REPORT_JOBS} cores at "
-        "these wall times (each scene's runs started in the study's order as a core frees)"
-    )
-    if unfinished:
-        line += ", more once the unfinished runs are done"
-    return line + "."
-
-
-def _section_walls(section: list[str]) -> tuple[list[float], bool]:
-    """(the wall times of the runs in a scene's section as the page has it, whether a run
-    there is not done), read from its runs' table."""
-    walls: list[float] = []
-    unfinished = False
-    columns: list[str] | None = None
-    for line in section:
-        if not line.startswith("|"):
-            continue
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if columns is None:
-            if "status" in cells and "wall (s)" in cells:
-                columns = cells
-            continue
-        if len(cells) != len(columns) or set(line) <= set("|- "):
-            continue
-        row = dict(zip(columns, cells, strict=True))
-        unfinished |= row["status"] != "done"
-        if row["wall (s)"] not in ("", "–"):
-            walls.append(float(row["wall (s)"]))
-    return walls, unfinished or columns is None
 
 
 def _page_scenes(path: Path) -> dict[str, tuple[str, list[str]]]:

@@ -11,7 +11,8 @@ import pytest
 
 from magfem.cli import main
 from magfem.config import CaseError
-from magfem.report import build_report, packed_wall
+from magfem.report import build_report
+from magfem.report_cost import packed_wall
 from magfem.study import load_studies
 from magfem.sweep import build_points, fingerprint, parse_param
 

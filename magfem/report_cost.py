@@ -1,0 +1,68 @@
+"""The cost of the whole ``magfem report``: the runs' wall times, summed and packed on cores.
+
+``magfem report --run`` runs the scenes one after another and, in each, its
+runs in the study's order on ``--jobs`` workers, each run starting on the first
+worker to free (the sweep's local runner). :func:`packed_wall` is that
+schedule's wall time for one scene; the page states the sum over the scenes
+on :data:`REPORT_JOBS` cores under its summary table (:func:`cost_line`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+__all__ = ["REPORT_JOBS", "cost_line", "packed_wall", "section_walls"]
+
+
+REPORT_JOBS = 2
+"""Runs at a time in the cost estimate of the whole report (the two cores it is sized for)."""
+
+
+def packed_wall(walls: Sequence[float], jobs: int) -> float:
+    """Wall time (s) of runs of ``walls`` (s) started in order, each on the first of ``jobs``
+    workers to free (the sweep's local runner)."""
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    free = [0.0] * jobs
+    for wall in walls:
+        free[free.index(min(free))] += wall
+    return max(free)
+
+
+def cost_line(walls: list[list[float]], unfinished: bool) -> str:
+    """The whole report's cost: the runs' wall times summed, and packed on two cores scene
+    after scene (``magfem report --run`` runs the scenes one after another)."""
+    total = sum(sum(w) for w in walls)
+    packed = sum(packed_wall(w, REPORT_JOBS) for w in walls)
+    line = (
+        f"All runs: {total / 3600:.1f} h of one core (the wall times above, summed). "
+        f"`magfem report --run --jobs {REPORT_JOBS}` runs the scenes one after another, "
+        f"{REPORT_JOBS} runs at a time: about {packed / 3600:.1f} h on {REPORT_JOBS} cores at "
+        "these wall times (each scene's runs started in the study's order as a core frees)"
+    )
+    if unfinished:
+        line += ", more once the unfinished runs are done"
+    return line + "."
+
+
+def section_walls(section: list[str]) -> tuple[list[float], bool]:
+    """(the wall times of the runs in a scene's section as the page has it, whether a run
+    there is not done), read from its runs' table."""
+    walls: list[float] = []
+    unfinished = False
+    columns: list[str] | None = None
+    for line in section:
+        if not line.startswith("|"):
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if columns is None:
+            if "status" in cells and "wall (s)" in cells:
+                columns = cells
+            continue
+        if len(cells) != len(columns) or set(line) <= set("|- "):
+            continue
+        row = dict(zip(columns, cells, strict=True))
+        unfinished |= row["status"] != "done"
+        if row["wall (s)"] not in ("", "–"):
+            walls.append(float(row["wall (s)"]))
+    return walls, unfinished or columns is None
