@@ -30,6 +30,14 @@ machine the wall time swings 2x with the other jobs), after a warm-up run that
 compiles; each run's set-up (magfem: the mesh and the forms from the JIT cache;
 PyElastica: the rod and ``finalize``) is left out of both and printed apart.
 
+``--coil``: the field rises as the experiments' coil current does instead of
+switching on at t = 0 (magfem's ``square_rl`` waveform at its defaults, L = 4.5 mH,
+R = 1 Ω, V = 20 V, at I0 = 3 A; in PyElastica the same closed form, w = β(1 −
+e^(−t/τ)) until it reaches 1, τ = L/R, β = V/(R I0): full field at 0.73 ms). A step
+rings every bending mode with a tip angle falling only as 1/n², so a pointwise
+history converges as √Δt; the rise leaves the modes far above 1/(0.73 ms) barely
+excited.
+
 ``--damped``: both codes with the elastomer's Kelvin–Voigt damping of
 relaxation time β = tan δ/(2π f), default tan δ = 0.1 at f = 50 Hz
 (β = 0.318 ms; ``--loss-tangent``, ``--frequency``): silicone elastomers'
@@ -53,9 +61,10 @@ the free arm by about half an element (``--decay``: the fourth mode's
 frequency falls as 1/n), so PyElastica converges at first order; the damped
 table also extrapolates its two finest levels. From the repository root:
 
-    .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] [--decay|--stability|--split]
+    .venv/bin/python -m benchmarks.pyelastica_comparison [--coil | --damped]
+    .venv/bin/python -m benchmarks.pyelastica_comparison [--damped] --decay|--stability|--split
 
-(undamped ~2 min; ``--damped`` ~7 min; ``--decay`` ~1.5 min; ``--split``:
+(undamped ~2 min; ``--coil`` ~3 min; ``--damped`` ~7 min; ``--decay`` ~1.5 min; ``--split``:
 where magfem's second-finest level spends its time, per step, with the
 defaults and with each of :data:`FAST`'s settings added in turn).
 """
@@ -63,6 +72,7 @@ defaults and with each of :data:`FAST`'s settings added in turn).
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from dataclasses import replace
 from typing import Any
@@ -73,6 +83,7 @@ from scipy import optimize
 
 from benchmarks._common import Report
 from magfem.case import Case
+from magfem.field.waveforms import SquareRL
 from magfem.mechanics.models.rod_section import torsion_constant
 from magfem.parallel import rank0_print
 from magfem.pipeline import build_simulation
@@ -98,7 +109,15 @@ MAGFEM_LEVELS = [  # (size m, degree, step s); the last is the reference
     (0.25e-3, 3, 0.03125e-3),
     (0.125e-3, 3, 0.015625e-3),
 ]
+MAGFEM_COIL_LEVELS = [  # --coil: the same, three more at smaller steps, the reference at Δt/4
+    *MAGFEM_LEVELS[:-1],
+    (0.5e-3, 3, 0.015625e-3),
+    (0.25e-3, 3, 0.015625e-3),
+    (0.25e-3, 3, 0.0078125e-3),
+    (0.125e-3, 3, 0.00390625e-3),
+]
 ELASTICA_LEVELS = [(25, 4e-6), (50, 2e-6), (100, 1e-6), (200, 5e-7), (400, 2.5e-7)]  # (n, Δt s)
+ELASTICA_COIL_LEVELS = [*ELASTICA_LEVELS, (800, 1.25e-7)]  # --coil: one more, as reference
 
 LOSS_TANGENT, LOSS_FREQUENCY = 0.1, 50.0  # tan δ at Hz: β = 0.318 ms (module docstring)
 MAGFEM_DAMPED_LEVELS = [
@@ -126,6 +145,26 @@ PLAIN: dict[str, dict[str, Any]] = {"solver": {}, "output": {}}
 """magfem's defaults (the reference, ``--plain``)."""
 RHO_INF = {"magfem": 0.5}
 """magfem's spectral radius at infinity, every level and the reference (``--rho-inf``)."""
+COIL = {"inductance": 4.5e-3, "resistance": 1.0, "voltage": 20.0, "current": 3.0}
+"""``--coil``: the experiments' coil (``square_rl``'s defaults) at 3 A (H, Ω, V, A)."""
+DRIVES: dict[str, Any] = {"field": vc.DRIVE, "rise": 0.0}
+"""The field of every run (magfem's ``[field]``) and, with ``--coil``, its current's time
+constant τ = L/R (s; 0: the field switches on at t = 0)."""
+
+
+def coil_drive() -> dict[str, Any]:
+    """:data:`vc.DRIVE` with the current of :data:`COIL` (``square_rl``) in place of the square."""
+    (source,) = vc.DRIVE["sources"]
+    waveform = {"kind": "square_rl", "frequency": source["waveform"]["frequency"], **COIL}
+    return {"sources": [{**source, "waveform": waveform}]}
+
+
+def coil_fraction(t: float) -> float:
+    """B(t)/B of ``square_rl`` on its first half period from zero current (closed form):
+    β(1 − e^(−t/τ)) until it reaches 1 (τ = L/R, β = V/(R I0))."""
+    tau = COIL["inductance"] / COIL["resistance"]
+    beta = COIL["voltage"] / (COIL["resistance"] * COIL["current"])
+    return min(beta * -math.expm1(-t / tau), 1.0)
 
 
 def magfem_case(
@@ -149,7 +188,7 @@ def magfem_case(
         name="pyelastica_comparison",
         root="rigid",
         mesh_options={"rod_bending": "beam"},
-        field=vc.DRIVE if field is None else field,
+        field=DRIVES["field"] if field is None else field,
         time={"end": end, "step": step, "rho_inf": RHO_INF["magfem"]},
         solver={"degree": degree, **settings["solver"]},
         loads=damping,
@@ -216,13 +255,15 @@ class _ElasticaForcing:
         class MagneticCouple(ea.NoForces):  # type: ignore[misc]
             """The hard-magnetic couple m × B, m = M_r A Δl d₁ (d₁ the section normal)."""
 
-            def __init__(self, moment: float, field: Any) -> None:
+            def __init__(self, moment: float, field: Any, rise: bool = False) -> None:
                 super().__init__()
                 self.moment, self.field = moment, np.asarray(field, dtype=float)
+                self.rise = rise
 
             def apply_torques(self, system: Any, time: Any = 0.0) -> None:
                 directors = system.director_collection  # (3 directors, 3 components, n)
-                couple = self.moment * np.cross(directors[0].T, self.field).T  # global (3, n)
+                field = self.field * coil_fraction(float(time)) if self.rise else self.field
+                couple = self.moment * np.cross(directors[0].T, field).T  # global (3, n)
                 system.external_torques += np.einsum("ijk,jk->ik", directors, couple)
 
         class KelvinVoigt(ea.NoForces):  # type: ignore[misc]
@@ -258,7 +299,8 @@ def elastica_run(
 ) -> tuple[float, np.ndarray]:
     """(CPU s, tip angle in degrees every ``every`` s) of PyElastica's rod of ``n`` elements,
     with the Kelvin–Voigt damping of relaxation time ``beta`` (s; 0: none); ``kwargs``:
-    ``field`` (T, 3-vector; default the drive's 2 mT along −x, which is on for 0–25 ms),
+    ``field`` (T, 3-vector; default the drive's 2 mT along −x, which is on for 0–25 ms,
+    rising as :func:`coil_fraction` with ``--coil``),
     ``every`` (s, default 1 ms), ``push`` (start in mode ``DECAY_MODE``), ``energy`` (a
     list: the kinetic and elastic energy (J) at each sample is appended to it)."""
     setup = time.process_time()
@@ -288,7 +330,8 @@ def elastica_run(
         ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
     )
     field = kwargs.get("field", [-B, 0.0, 0.0])
-    sim.add_forcing_to(rod).using(forcing.MagneticCouple, M_R * area * dl, field)
+    rise = "field" not in kwargs and DRIVES["rise"] > 0.0  # the drive, with --coil
+    sim.add_forcing_to(rod).using(forcing.MagneticCouple, M_R * area * dl, field, rise)
     if beta:
         sim.add_forcing_to(rod).using(forcing.KelvinVoigt, beta, dt)
     sim.finalize()
@@ -425,9 +468,14 @@ def time_to(levels: list[tuple[float, float, float]], tolerance: float, column: 
 HEADER = "| code | resolution | CPU (s, 1 core) | max error 0-25 ms (deg) | 0-6 ms (deg) |"
 
 
+REFERENCE_CPU: dict[str, float] = {}
+"""CPU s of each code's reference run (by the name :func:`compare` was given)."""
+
+
 def compare(report: Report, name: str, runs: list[tuple[str, float, np.ndarray]]) -> list:
     """Rows (label, wall, errors) against the last run; returns [(wall, error, rise error)]."""
     reference = runs[-1][2]
+    REFERENCE_CPU[name] = runs[-1][1]
     out = []
     for label, wall, angles in runs[:-1]:
         error = np.abs(angles - reference)
@@ -475,6 +523,37 @@ def ratios(report: Report, magfem: list, elastica: list, name: str = "PyElastica
             )
 
 
+def coil_line() -> str:
+    """The PyElastica forcing's :func:`coil_fraction` against magfem's ``square_rl``."""
+    (source,) = DRIVES["field"]["sources"]
+    waveform = SquareRL(source["waveform"]["frequency"], **COIL)
+    t = np.linspace(0.0, END, 25001)
+    ours = np.array([coil_fraction(x) for x in t])
+    gap = np.max(np.abs(ours - np.asarray(waveform.value(t))))
+    return f"coil current: PyElastica's closed form vs magfem's square_rl, max {gap:.1e}"
+
+
+def first_order_estimate(levels: list[tuple[int, float]], rows: list, reference_cpu: float) -> list:
+    """PyElastica's CPU s to 1° and 0.1° where no level reached them, estimated: its error
+    against its reference of n_ref elements is C (1/n − 1/n_ref) (first order, the clamp's
+    half element), C from its finest level; n from C (1/n − 1/n_ref) = tolerance; CPU as
+    n² (elements × steps), scaled from the reference's. Lines for :class:`Report`."""
+    (n_ref, _), (n, _) = levels[-1], levels[-2]
+    lines = []
+    for column, window in ((1, "0-25 ms"), (2, "0-6 ms")):
+        c = rows[-1][column] / (1 / n - 1 / n_ref)
+        for tolerance in (1.0, 0.1):
+            if time_to(rows, tolerance, column) < np.inf:
+                continue
+            needed = 1 / (tolerance / c + 1 / n_ref)
+            lines.append(
+                f"{window}, to {tolerance:g} deg: PyElastica estimated at first order "
+                f"(C = {c:.0f} deg x element): {needed:.0f} elements, "
+                f"{reference_cpu * (needed / n_ref) ** 2:.1f} s"
+            )
+    return lines
+
+
 def setup_line() -> str:
     """The range of each code's set-up time per run, which the compared times leave out."""
     parts = [f"{k} {min(v):.2f}-{max(v):.2f} s" for k, v in SETUP.items() if v]
@@ -493,11 +572,33 @@ def gap_line(magfem_reference: np.ndarray, elastica_reference: np.ndarray) -> st
 
 def undamped() -> None:
     """The undamped comparison (§6c's first table)."""
-    report = Report(f"magfem's rho_inf {RHO_INF['magfem']:g}", HEADER, "|---|---|---|---|---|")
-    magfem, elastica, a, b = table(report, 0.0, MAGFEM_LEVELS, ELASTICA_LEVELS)
+    drive = "the coil's rising current" if DRIVES["rise"] else "switched on at t = 0"
+    report = Report(
+        f"magfem's rho_inf {RHO_INF['magfem']:g}; the field {drive}",
+        HEADER,
+        "|---|---|---|---|---|",
+    )
+    coil = DRIVES["rise"] > 0.0
+    magfem, elastica, a, b = table(
+        report,
+        0.0,
+        MAGFEM_COIL_LEVELS if coil else MAGFEM_LEVELS,
+        ELASTICA_COIL_LEVELS if coil else ELASTICA_LEVELS,
+    )
     report.add("")
+    if coil:
+        report.add(coil_line())
     ratios(report, magfem, elastica)
+    levels = ELASTICA_COIL_LEVELS if coil else ELASTICA_LEVELS
+    for line in first_order_estimate(levels, elastica, REFERENCE_CPU["PyElastica"]):
+        report.add(line)
     report.add(gap_line(a, b[-1]))
+    richardson = np.abs(2 * b[-1] - b[-2] - a)  # PyElastica's first-order clamp error removed
+    report.add(
+        f"PyElastica extrapolated to zero element length (2 a_n - a_n/2, first order) vs "
+        f"converged magfem: max {richardson.max():.3f} deg at "
+        f"{SAMPLES[int(np.argmax(richardson))] * 1e3:g} ms"
+    )
     report.add(setup_line())
     report.print()
 
@@ -556,10 +657,15 @@ def main() -> None:
     parser.add_argument(
         "--rho-inf", type=float, default=0.5, help="magfem's generalized-alpha rho_inf (0-1)"
     )
+    parser.add_argument(
+        "--coil", action="store_true", help="the field rising with the coil's current"
+    )
     args = parser.parse_args()
     if not 0.0 <= args.rho_inf <= 1.0:
         parser.error(f"--rho-inf must lie in [0, 1], got {args.rho_inf}")
     RHO_INF["magfem"] = args.rho_inf
+    if args.coil:
+        DRIVES.update(field=coil_drive(), rise=COIL["inductance"] / COIL["resistance"])
     if args.plain:
         FAST.update(PLAIN)
     beta = args.loss_tangent / (2 * np.pi * args.frequency) if args.damped else 0.0
