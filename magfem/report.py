@@ -34,7 +34,7 @@ from typing import Any
 
 from magfem.case import load_case
 from magfem.config import CaseError
-from magfem.report_cost import cost_line, section_walls
+from magfem.report_cost import cost_line, run_wall, section_walls
 from magfem.report_figures import animation, scene_figure
 from magfem.study import STUDIES_DIR, Study, load_studies
 from magfem.sweep import (
@@ -47,6 +47,7 @@ from magfem.sweep import (
     summarize_history,
     write_summary,
 )
+from magfem.sweep.engines import STOPPED_WALL, read_json
 
 __all__ = ["build_report"]
 
@@ -195,12 +196,13 @@ def build_report(
             records, reason = _records(study, sweep_dir, None)
         done = [r for r in records if r.get("status") == "done"]
         status, reason = _status(study, records, reason)
-        wall = sum(float(r.get("wall_s", 0.0)) for r in records)
+        counted = [w for w in (run_wall(r)[0] for r in records) if w is not None]
+        wall = sum(counted)
         lines.append(
             f"| [{study.ident}](#{study.ident}) | {status} | {len(done)}/{len(records) or '–'} "
             f"| {wall:.0f} |"
         )
-        walls.append([float(r["wall_s"]) for r in records if "wall_s" in r])
+        walls.append(counted)
         unfinished |= len(done) < len(records) or not records
         body += _scene_section(study, records, reason, sweep_dir, figures, docs)
     lines += ["", cost_line(walls, unfinished)]
@@ -298,7 +300,8 @@ def _status(study: Study, records: list[dict[str, Any]], reason: str) -> tuple[s
 
 def _read_only(study: Study, sweep_dir: Path) -> list[dict[str, Any]]:
     """The study's points as they stand on disk, without running: finished points from
-    their ``point.json`` (same parameters and case fingerprint), the others ``missing``."""
+    their ``point.json`` (same parameters and case fingerprint), the others ``missing``,
+    with ``stopped_wall_s`` where a stopped run left its wall time until now."""
     points = build_points(
         [parse_param(p) for p in study.params],
         fingerprint(Path(study.case), study.sets),
@@ -310,6 +313,8 @@ def _read_only(study: Study, sweep_dir: Path) -> list[dict[str, Any]]:
         pj = sweep_dir / "points" / pt.ident / "point.json"
         if pj.is_file():
             record = json.loads(pj.read_text(encoding="utf-8"))
+        elif (stopped := read_json(pj.parent / STOPPED_WALL)) is not None:
+            record["stopped_wall_s"] = float(stopped["wall_s"])
         records.append({"point": pt.ident, "params": pt.params} | record)
     return records
 
@@ -409,7 +414,7 @@ def _table_lines(study: Study, records: list[dict[str, Any]]) -> list[str]:
         cells = [
             *(str(rec["params"][n]) for n in names),
             str(rec.get("status", "missing")),
-            f"{float(rec['wall_s']):.0f}" if "wall_s" in rec else "–",
+            run_wall(rec)[1],
             *(_fmt(c, summ.get(c)) for c in cols),
         ]
         out.append("| " + " | ".join(cells) + " |")

@@ -10,12 +10,30 @@ on :data:`REPORT_JOBS` cores under its summary table (:func:`cost_line`).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
-__all__ = ["REPORT_JOBS", "cost_line", "packed_wall", "section_walls"]
+__all__ = ["REPORT_JOBS", "SO_FAR", "cost_line", "packed_wall", "run_wall", "section_walls"]
 
 
 REPORT_JOBS = 2
 """Runs at a time in the cost estimate of the whole report (the two cores it is sized for)."""
+
+
+SO_FAR = " so far"
+"""Suffix of a stopped run's wall time in the runs' tables (its runs until now)."""
+
+
+def run_wall(record: dict[str, Any]) -> tuple[float | None, str]:
+    """(wall s to count, the table's cell) of a run's record: a finished or failed run's
+    ``wall_s``; a stopped one's ``stopped_wall_s``, its runs until now (the cell says so);
+    else (None, "–")."""
+    if "wall_s" in record:
+        wall = float(record["wall_s"])
+        return wall, f"{wall:.0f}"
+    if "stopped_wall_s" in record:
+        wall = float(record["stopped_wall_s"])
+        return wall, f"{wall:.0f}{SO_FAR}"
+    return None, "–"
 
 
 def packed_wall(walls: Sequence[float], jobs: int) -> float:
@@ -64,5 +82,5 @@ def section_walls(section: list[str]) -> tuple[list[float], bool]:
         row = dict(zip(columns, cells, strict=True))
         unfinished |= row["status"] != "done"
         if row["wall (s)"] not in ("", "–"):
-            walls.append(float(row["wall (s)"]))
+            walls.append(float(row["wall (s)"].removesuffix(SO_FAR)))
     return walls, unfinished or columns is None

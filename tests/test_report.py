@@ -402,7 +402,8 @@ def test_packed_wall_starts_each_run_on_the_first_free_worker():
 
 def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, repo, monkeypatch):
     """The page sums every run's wall time and packs each scene's runs on two cores; a scene
-    kept from the page (``only`` another) counts with the wall times its table shows."""
+    kept from the page (``only`` another) counts with the wall times its table shows; a
+    stopped run counts (and shows) its wall time so far."""
     monkeypatch.chdir(repo)
     folder = tmp_path / "studies"
     folder.mkdir()
@@ -429,6 +430,18 @@ def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, rep
     (point / "point.json").write_text("{}")  # a run without a record: not done
     missing = build_report(out, **kwargs).read_text()
     assert "more once the unfinished runs are done." in missing
+    (point / "point.json").unlink()
+    for point in (out / "other" / "points").iterdir():  # stopped runs: their time so far
+        (point / "stopped_wall.json").write_text('{"wall_s": 5400.0}')
+    line = (
+        "All runs: 8.5 h of one core (the wall times above, summed). `magfem report --run "
+        "--jobs 2` runs the scenes one after another, 2 runs at a time: about 5.0 h on 2 cores"
+    )
+    for page in (build_report(out, **kwargs), build_report(out, only=["probe"], **kwargs)):
+        text = page.read_text()
+        assert text.count("| 5400 so far |") == 3
+        assert line + " at these wall times" in text
+        assert "more once the unfinished runs are done." in text
 
 
 def test_report_hold_tabulates_the_largest_angle_held_and_says_so(tmp_path, repo, monkeypatch):
