@@ -3,6 +3,8 @@ size, a Krylov method when the case names another preconditioner, and the kept J
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -17,6 +19,7 @@ from magfem.mechanics.solver_options import (
     check_petsc_options,
     choose_linear_solver,
     newton_options,
+    reuse_contraction,
 )
 from magfem.mechanics.spec import SolverSpec
 from magfem.pipeline import build_simulation
@@ -297,7 +300,11 @@ def test_jacobian_reuse_refreshes_on_a_new_step_size_slow_contraction_or_failure
 
     domain = mesh.create_unit_interval(MPI.COMM_SELF, 1)
     dt = fem.Constant(domain, 1e-4)
-    contraction = SolverSpec().reuse_contraction
+    contraction = reuse_contraction(SolverSpec(reuse_jacobian=True))
+    assert contraction == 0.5
+    free = SolverSpec(reuse_jacobian=True, jacobian_free=True)
+    assert reuse_contraction(free) == 0.99  # a new preconditioner does not cure nonlinearity
+    assert reuse_contraction(dataclasses.replace(free, reuse_contraction=0.3)) == 0.3
     reuse = JacobianReuse(contraction, [dt])
     snes = _Snes()
     reuse.start()

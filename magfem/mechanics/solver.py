@@ -51,6 +51,7 @@ from magfem.mechanics.solver_options import (
     choose_linear_solver,
     factor_options,
     newton_options,
+    reuse_contraction,
 )
 from magfem.mechanics.spec import SolverSpec
 
@@ -196,7 +197,7 @@ class NewtonSolver:
         add entries off the Dirichlet rows and columns, then call ``A.assemble()``."""
         krylov = spec.krylov_iterations if spec.jacobian_free else None
         self.reuse = (
-            JacobianReuse(spec.reuse_contraction, refresh_on, krylov)
+            JacobianReuse(reuse_contraction(spec), refresh_on, krylov)
             if spec.reuse_jacobian
             else None
         )

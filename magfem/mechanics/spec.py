@@ -291,13 +291,13 @@ class SolverSpec:
         "iteration reduces the residual norm to reuse_contraction of the previous one or less "
         "(modified Newton); rebuilt when the step changes and after a failed solve",
     )
-    reuse_contraction: float = quantity(
-        0.5,
+    reuse_contraction: float | None = quantity(
+        None,
         "",
         gt=0.0,
         lt=1.0,
         doc="reuse_jacobian: rebuild the Jacobian after an iteration that left the residual "
-        "norm above this fraction of the previous one",
+        "norm above this fraction of the previous one (default 0.5; 0.99 with jacobian_free)",
     )
     jacobian_free: bool = flag(
         False,
