@@ -313,7 +313,7 @@ def _read_only(study: Study, sweep_dir: Path) -> list[dict[str, Any]]:
         pj = sweep_dir / "points" / pt.ident / "point.json"
         if pj.is_file():
             record = json.loads(pj.read_text(encoding="utf-8"))
-        elif (stopped := read_json(pj.parent / STOPPED_WALL)) is not None:
+        elif "wall_s" in (stopped := read_json(pj.parent / STOPPED_WALL) or {}):
             record["stopped_wall_s"] = float(stopped["wall_s"])
         records.append({"point": pt.ident, "params": pt.params} | record)
     return records

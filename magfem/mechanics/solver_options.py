@@ -89,7 +89,7 @@ JACOBIAN_FREE_DEFAULTS: dict[str, Any] = {
 the assembled Jacobian is the preconditioner's matrix only), flexible GMRES (right
 preconditioning that keeps the preconditioned vectors: with a fixed preconditioner the
 iterates of GMRES on the right, without the extra triangular solve that GMRES spends on its
-solution; 1.12 × faster on the default case, docs/verification.md §8) under its
+solution; 1.06 × faster on the default case, docs/verification.md §8) under its
 factorisation, each Newton step solved to 0.1 of its residual (an inexact Newton step:
 the Newton iterations contract by about that much; on the default case 0.1 with
 ``krylov_iterations = 4`` was as fast as 0.3 with 2 and 1.07 × faster than 0.3 with 3,
