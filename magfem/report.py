@@ -2,7 +2,7 @@
 
 The studies are data (:mod:`magfem.study`): one file per scene in
 ``cases/studies/``, each a sweep of a case over one or more parameters
-(:func:`magfem.sweep.run_sweep`, so an interrupted report resumes where it
+(:mod:`magfem.sweep`, so an interrupted report resumes where it
 stopped) and the summary scalars to tabulate. ``magfem report --run`` runs
 what is missing (``--only ID`` restricts to some scenes); without ``--run`` it
 only reads finished runs. The page is rebuilt each time, except that with
@@ -24,8 +24,6 @@ summed, and packed on two cores (:mod:`magfem.report_cost`) as ``magfem report
 
 from __future__ import annotations
 
-import functools
-import json
 import math
 import re
 from collections.abc import Callable, Sequence
@@ -36,18 +34,9 @@ from magfem.case import load_case
 from magfem.config import CaseError
 from magfem.report_cost import cost_line, run_wall, section_walls
 from magfem.report_figures import animation, scene_figure
+from magfem.report_runs import read_records, run_studies
 from magfem.study import STUDIES_DIR, Study, load_studies
-from magfem.sweep import (
-    SweepResult,
-    build_points,
-    fingerprint,
-    parse_param,
-    plot_sweep,
-    run_sweep,
-    summarize_history,
-    write_summary,
-)
-from magfem.sweep.engines import STOPPED_WALL, read_json
+from magfem.sweep import parse_param
 
 __all__ = ["build_report"]
 
@@ -144,8 +133,8 @@ def build_report(
     """Run (``run=True``) or read the studies of the folder ``studies`` and write
     ``docs/scenes.md``.
 
-    ``retry_failed`` reruns points recorded as failed (passed to
-    :func:`magfem.sweep.run_sweep`); ``jobs`` runs that many points at once.
+    ``retry_failed`` reruns points recorded as failed; ``jobs`` runs that many points at
+    once, the scenes' points in one queue (:func:`magfem.sweep.run_plans`).
 
     With ``only``, a scene not named keeps its row and section from the existing page
     (rebuilt from ``out`` when the page lacks it), read after the runs: a page another
@@ -169,12 +158,9 @@ def build_report(
         "| scene | status | runs | wall time (s) |",
         "| --- | --- | --- | --- |",
     ]
-    sweep = functools.partial(run_sweep, jobs=jobs, retry_failed=retry_failed, echo=echo)
-    ran = {  # the runs first: they may take hours, and the page may change meanwhile
-        s.ident: _records(s, out / s.ident, sweep)
-        for s in all_studies
-        if run and (not only or s.ident in only)
-    }
+    chosen = [s for s in all_studies if run and (not only or s.ident in only)]
+    # the runs first: they may take hours, and the page may change meanwhile
+    ran = run_studies(chosen, out, jobs=jobs, retry_failed=retry_failed, echo=echo)
     body: list[str] = []
     path = docs / "scenes.md"
     kept = _page_scenes(path) if only else {}  # read now, not before the runs
@@ -193,7 +179,7 @@ def build_report(
         if study.ident in ran:
             records, reason = ran[study.ident]
         else:
-            records, reason = _records(study, sweep_dir, None)
+            records, reason = read_records(study, sweep_dir, None)
         done = [r for r in records if r.get("status") == "done"]
         status, reason = _status(study, records, reason)
         counted = [w for w in (run_wall(r)[0] for r in records) if w is not None]
@@ -236,40 +222,6 @@ def _page_scenes(path: Path) -> dict[str, tuple[str, list[str]]]:
     return {k: (rows[k], trimmed(sections[k])) for k in rows.keys() & sections.keys()}
 
 
-def _records(
-    study: Study, sweep_dir: Path, sweep: Callable[..., SweepResult] | None
-) -> tuple[list[dict[str, Any]], str]:
-    """The study's run records (``sweep`` runs what is missing; None: read only) with their
-    summaries refreshed from the histories, and why there are none, if so."""
-    if sweep is None and not (sweep_dir / "points").is_dir():
-        reason = f"not run yet (`magfem report --run --only {study.ident}`)"
-        return [], reason + (f": {study.pending}" if study.pending else "")
-    try:
-        if sweep is not None:
-            records = sweep(
-                study.case,
-                list(study.params),
-                sweep_dir,
-                base_overrides=list(study.sets),
-                paired=study.paired,
-            ).records
-        else:
-            records = _read_only(study, sweep_dir)
-    except CaseError as err:
-        return [], f"case error: {err}"
-    for rec in records:  # summaries from the histories: new scalars for old runs too
-        point = sweep_dir / "points" / str(rec.get("point", ""))
-        if (point / "history.csv").is_file():
-            rec["summary"] = summarize_history(point, study.window_ends(), study.hold)
-    if records:  # the table and plot of the refreshed summaries
-        names = [parse_param(p)[0] for p in study.params]
-        write_summary(records, names, sweep_dir)
-        plot_sweep(
-            records, names, sweep_dir / "sweep.png", paired=study.paired, by=study.compare_by
-        )
-    return records, ""
-
-
 def _status(study: Study, records: list[dict[str, Any]], reason: str) -> tuple[str, str]:
     """The scene's status (predicted, partial, missing, under-resolved, no uncertainty) and the
     reason its prediction is missing ("" when it is not). Finished runs are a prediction only
@@ -296,27 +248,6 @@ def _status(study: Study, records: list[dict[str, Any]], reason: str) -> tuple[s
             "(no second resolution compared, no `uncertainty`)"
         )
     return status, reason
-
-
-def _read_only(study: Study, sweep_dir: Path) -> list[dict[str, Any]]:
-    """The study's points as they stand on disk, without running: finished points from
-    their ``point.json`` (same parameters and case fingerprint), the others ``missing``,
-    with ``stopped_wall_s`` where a stopped run left its wall time until now."""
-    points = build_points(
-        [parse_param(p) for p in study.params],
-        fingerprint(Path(study.case), study.sets),
-        paired=study.paired,
-    )
-    records: list[dict[str, Any]] = []
-    for pt in points:
-        record: dict[str, Any] = {"status": "missing"}
-        pj = sweep_dir / "points" / pt.ident / "point.json"
-        if pj.is_file():
-            record = json.loads(pj.read_text(encoding="utf-8"))
-        elif "wall_s" in (stopped := read_json(pj.parent / STOPPED_WALL) or {}):
-            record["stopped_wall_s"] = float(stopped["wall_s"])
-        records.append({"point": pt.ident, "params": pt.params} | record)
-    return records
 
 
 def _scene_section(

@@ -1,10 +1,10 @@
 """The cost of the whole ``magfem report``: the runs' wall times, summed and packed on cores.
 
-``magfem report --run`` runs the scenes one after another and, in each, its
-runs in the study's order on ``--jobs`` workers, each run starting on the first
-worker to free (the sweep's local runner). :func:`packed_wall` is that
-schedule's wall time for one scene; the page states the sum over the scenes
-on :data:`REPORT_JOBS` cores under its summary table (:func:`cost_line`).
+``magfem report --run`` runs the scenes' runs in one queue on ``--jobs`` workers,
+scene after scene in the page's order and each scene's in the study's order,
+each run starting on the first worker to free (:func:`magfem.sweep.run_plans`).
+:func:`packed_wall` is that schedule's wall time; the page states it for
+:data:`REPORT_JOBS` cores under its summary table (:func:`cost_line`).
 """
 
 from __future__ import annotations
@@ -48,15 +48,17 @@ def packed_wall(walls: Sequence[float], jobs: int) -> float:
 
 
 def cost_line(walls: list[list[float]], unfinished: bool) -> str:
-    """The whole report's cost: the runs' wall times summed, and packed on two cores scene
-    after scene (``magfem report --run`` runs the scenes one after another)."""
-    total = sum(sum(w) for w in walls)
-    packed = sum(packed_wall(w, REPORT_JOBS) for w in walls)
+    """The whole report's cost: the runs' wall times (each scene's, in the page's order)
+    summed, and packed on two cores in one queue as ``magfem report --run`` runs them."""
+    queue = [w for scene in walls for w in scene]
+    total = sum(queue)
+    packed = packed_wall(queue, REPORT_JOBS)
     line = (
         f"All runs: {total / 3600:.1f} h of one core (the wall times above, summed). "
-        f"`magfem report --run --jobs {REPORT_JOBS}` runs the scenes one after another, "
-        f"{REPORT_JOBS} runs at a time: about {packed / 3600:.1f} h on {REPORT_JOBS} cores at "
-        "these wall times (each scene's runs started in the study's order as a core frees)"
+        f"`magfem report --run --jobs {REPORT_JOBS}` runs them in one queue, {REPORT_JOBS} at a "
+        f"time: about {packed / 3600:.1f} h on {REPORT_JOBS} cores at these wall times (the "
+        "scenes in the page's order, each scene's runs in the study's, each run started as a "
+        "core frees)"
     )
     if unfinished:
         line += ", more once the unfinished runs are done"

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
@@ -314,16 +313,16 @@ def test_report_only_keeps_a_section_another_report_wrote_during_the_runs(
     page = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
     assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in page
 
-    def sweep(case, params, sweep_dir, **_):  # meanwhile another report rebuilds five-arm
+    def run_plans(plans, jobs):  # meanwhile another report rebuilds five-arm
+        assert [plan.out.name for plan in plans] == ["two-arm-20hz"]
         text = (docs / "scenes.md").read_text()
         text = text.replace(
             "| [five-arm](#five-arm) | missing | 0/– | 0 |",
             "| [five-arm](#five-arm) | predicted | 1/1 | 7 |",
         ).replace("## five-arm\n", "## five-arm\n\nWritten during the runs.\n")
         (docs / "scenes.md").write_text(text)
-        return SimpleNamespace(records=[])
 
-    monkeypatch.setattr("magfem.report.run_sweep", sweep)
+    monkeypatch.setattr("magfem.report_runs.run_plans", run_plans)
     text = build_report(tmp_path / "out", run=True, only=["two-arm-20hz"], docs=docs, echo=None)
     text = text.read_text()
     assert "| [five-arm](#five-arm) | predicted | 1/1 | 7 |" in text
@@ -401,25 +400,28 @@ def test_packed_wall_starts_each_run_on_the_first_free_worker():
 
 
 def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, repo, monkeypatch):
-    """The page sums every run's wall time and packs each scene's runs on two cores; a scene
-    kept from the page (``only`` another) counts with the wall times its table shows; a
-    stopped run counts (and shows) its wall time so far."""
+    """The page sums every run's wall time and packs all runs on two cores in one queue,
+    scene after scene in the page's order (a core the first scene's long run leaves free
+    takes the next scene's runs); a scene kept from the page (``only`` another) counts with
+    the wall times its table shows; a stopped run counts (and shows) its wall time so far."""
     monkeypatch.chdir(repo)
     folder = tmp_path / "studies"
     folder.mkdir()
     head = 'title = "Probe"\ncase = "cases/self_clean.toml"\nobserve = "x"\n'
-    for name in ("probe", "other"):
-        body = 'params = ["mesh.size=0.2mm,0.1mm,0.05mm"]\n'
+    for order, name, sizes in ((1, "probe", "0.2mm,0.1mm"), (2, "other", "0.2mm,0.1mm,0.05mm")):
+        body = f'order = {order}\nparams = ["mesh.size={sizes}"]\n'
         (folder / f"{name}.toml").write_text(head + body, encoding="utf-8")
     out = tmp_path / "out"
-    probe, other = sorted(load_studies(folder), key=lambda s: s.ident != "probe")
-    summaries = [{"max_angle_arm": 1.0}] * 3
-    _write_points(out, probe, summaries, [7200.0, 3600.0, 3600.0])  # 4 h; 2 h on two cores
-    _write_points(out, other, summaries, [1800.0, 1800.0, 3600.0])  # 2 h; 1.5 h on two
+    probe, other = load_studies(folder)
+    assert (probe.ident, other.ident) == ("probe", "other")
+    _write_points(out, probe, [{"max_angle_arm": 1.0}] * 2, [7200.0, 3600.0])
+    _write_points(out, other, [{"max_angle_arm": 1.0}] * 3, [1800.0, 1800.0, 3600.0])
+    # one queue: the 1 h run, then other's three, share a core with the 2 h run: 3 h, where
+    # scene after scene would take 2 h + 1.5 h
     kwargs = {"docs": tmp_path / "docs", "studies": folder, "echo": None}
     line = (
-        "All runs: 6.0 h of one core (the wall times above, summed). `magfem report --run "
-        "--jobs 2` runs the scenes one after another, 2 runs at a time: about 3.5 h on 2 cores"
+        "All runs: 5.0 h of one core (the wall times above, summed). `magfem report --run "
+        "--jobs 2` runs them in one queue, 2 at a time: about 3.0 h on 2 cores"
     )
     assert line + " at these wall times" in build_report(out, **kwargs).read_text()
     for point in (out / "other" / "points").iterdir():  # its runs now live elsewhere
@@ -433,9 +435,9 @@ def test_report_states_the_whole_reports_cost_also_for_kept_scenes(tmp_path, rep
     (point / "point.json").unlink()
     for point in (out / "other" / "points").iterdir():  # stopped runs: their time so far
         (point / "stopped_wall.json").write_text('{"wall_s": 5400.0}')
-    line = (
-        "All runs: 8.5 h of one core (the wall times above, summed). `magfem report --run "
-        "--jobs 2` runs the scenes one after another, 2 runs at a time: about 5.0 h on 2 cores"
+    line = (  # 2 h | 1 h + 1.5 h, then 1.5 h after the 2 h run and 1.5 h after the other
+        "All runs: 7.5 h of one core (the wall times above, summed). `magfem report --run "
+        "--jobs 2` runs them in one queue, 2 at a time: about 4.0 h on 2 cores"
     )
     for page in (build_report(out, **kwargs), build_report(out, only=["probe"], **kwargs)):
         text = page.read_text()

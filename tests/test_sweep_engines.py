@@ -9,13 +9,16 @@ history the local engine gives, to the last digit.
 from __future__ import annotations
 
 import csv
+import itertools
 import shutil
+import sys
+from dataclasses import replace
 
 import pytest
 import tomli_w
 
 from magfem.config import CaseError
-from magfem.sweep import parse_engine_options, run_sweep
+from magfem.sweep import parse_engine_options, plan_sweep, run_plans, run_sweep
 from magfem.sweep.engines import PointJob, record_point
 from verification import setups as vc
 
@@ -96,3 +99,53 @@ def test_engine_options_parse_numbers_and_reject_bad_items():
     with pytest.raises(CaseError) as err:
         parse_engine_options(["partition"])
     assert err.value.key == "--engine-option"
+
+
+_POINT = """
+import sys, time
+from pathlib import Path
+name, seconds, log = sys.argv[1], float(sys.argv[2]), Path(sys.argv[3])
+with log.open("a") as fh:
+    fh.write(f"start {name}\\n")
+time.sleep(seconds)
+with log.open("a") as fh:
+    fh.write(f"end {name}\\n")
+"""
+
+
+@pytest.mark.serial
+def test_sweeps_in_one_queue_share_the_cores_in_order(tmp_path):
+    """Two sweeps in one queue on 2 workers (as ``magfem report --run`` runs its scenes):
+    the second sweep's points take the core the first sweep's long point leaves free, in
+    their order, never more than 2 at once, each recorded in its own sweep. The points are
+    stand-in processes (a 4 s one, three 0.2 s ones), so the order is the schedule's; the
+    three short ones end more than 2 s before the long one even at 0.5 s per start."""
+    case = tmp_path / "engine_probe.toml"
+    case.write_text(tomli_w.dumps(CASE))
+    log = tmp_path / "order.log"
+    plans = []
+    for name, seconds in (("long", [4.0]), ("short", [0.2, 0.2, 0.2])):
+        values = ",".join(f"{10 * (k + 1)}Hz" for k in range(len(seconds)))
+        plan = plan_sweep(case, [f"{PARAM}={values}"], tmp_path / name, echo=None)
+        plan.todo = [
+            replace(job, command=[sys.executable, "-c", _POINT, f"{name}{k}", str(s), str(log)])
+            for k, (job, s) in enumerate(zip(plan.todo, seconds, strict=True))
+        ]
+        plans.append(plan)
+    run_plans(plans, 2)
+    events = log.read_text().split()
+    order = [f"{what} {who}" for what, who in zip(events[::2], events[1::2], strict=True)]
+    assert order[0] == "start long0" and order[-1] == "end long0"
+    assert [e for e in order if e.startswith("start short")] == [
+        "start short0",
+        "start short1",
+        "start short2",
+    ]
+    running = [1 if e.startswith("start") else -1 for e in order]
+    assert max(itertools.accumulate(running)) == 2
+    for plan in plans:
+        assert sorted(plan.result.ran) == sorted(job.ident for job in plan.todo)
+        statuses = [(plan.out / "points" / job.ident / "point.json").is_file() for job in plan.todo]
+        assert all(statuses)
+    with pytest.raises(CaseError, match="--jobs"):
+        run_plans(plans, 0)

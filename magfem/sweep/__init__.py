@@ -52,18 +52,29 @@ times and forces, the end time. Names and definitions: docs/physics.md,
 
 from magfem.sweep.engines import ENGINES, parse_engine_options
 from magfem.sweep.points import Point, build_points, fingerprint, parse_param
-from magfem.sweep.runner import SweepResult, run_sweep
+from magfem.sweep.runner import (
+    SweepPlan,
+    SweepResult,
+    finish_sweep,
+    plan_sweep,
+    run_plans,
+    run_sweep,
+)
 from magfem.sweep.summary import plot_sweep, summarize_history, write_summary
 
 __all__ = [
     "ENGINES",
     "Point",
+    "SweepPlan",
     "SweepResult",
     "build_points",
     "fingerprint",
+    "finish_sweep",
     "parse_engine_options",
     "parse_param",
+    "plan_sweep",
     "plot_sweep",
+    "run_plans",
     "run_sweep",
     "summarize_history",
     "write_summary",

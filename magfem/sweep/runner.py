@@ -28,7 +28,7 @@ from magfem.sweep.engines import (
 from magfem.sweep.points import SYNTAX, Point, build_points, fingerprint, parse_param
 from magfem.sweep.summary import plot_sweep, write_summary
 
-__all__ = ["SweepResult", "run_sweep"]
+__all__ = ["SweepPlan", "SweepResult", "finish_sweep", "plan_sweep", "run_plans", "run_sweep"]
 
 
 @dataclass
@@ -82,20 +82,20 @@ def _point_job(
 
 
 class _LocalRunner:
-    """Runs point jobs as local processes, ``jobs`` at a time, keeping their handles."""
+    """Runs the point jobs of one or more sweeps as local processes, ``jobs`` at a time, in
+    the order given, keeping their handles."""
 
-    def __init__(self, log: _Log) -> None:
-        self.log = log
-        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+    def __init__(self) -> None:
+        self.procs: dict[int, subprocess.Popen[bytes]] = {}
         self.lock = threading.Lock()
-        self.ran: list[str] = []
 
-    def run_all(self, todo: Sequence[PointJob], jobs: int) -> list[str]:
-        """Run ``todo``; the ids of the points recorded. Ctrl-C stops the points running
-        (our own child processes, by handle) and re-raises."""
+    def run_all(self, todo: Sequence[tuple[PointJob, SweepPlan]], jobs: int) -> None:
+        """Run each job of ``todo`` (with the sweep it belongs to, whose log and ``ran`` list
+        it updates). Ctrl-C stops the points running (our own child processes, by handle)
+        and re-raises."""
         pool = ThreadPoolExecutor(max_workers=jobs)
         try:
-            for fut in [pool.submit(self.run, job) for job in todo]:
+            for fut in [pool.submit(self.run, job, plan) for job, plan in todo]:
                 fut.result()
         except KeyboardInterrupt:
             pool.shutdown(wait=False, cancel_futures=True)
@@ -105,33 +105,111 @@ class _LocalRunner:
             pool.shutdown(wait=True)
             raise
         pool.shutdown(wait=True)
-        return self.ran
 
-    def run(self, job: PointJob) -> None:
+    def run(self, job: PointJob, plan: SweepPlan) -> None:
         """One point; a point killed by a signal is left unfinished (no ``point.json``)."""
         pdir = Path(job.point_dir)
         pdir.mkdir(parents=True, exist_ok=True)
-        self.log(f"start {job.ident} {json.dumps(job.params)}")
+        plan.log(f"start {job.ident} {json.dumps(job.params)}")
         t0 = time.perf_counter()
+        key = threading.get_ident()
 
         def start(command: list[str], fh: BinaryIO) -> int:
             proc = subprocess.Popen(command, stdout=fh, stderr=subprocess.STDOUT)
             with self.lock:
-                self.procs[job.ident] = proc
+                self.procs[key] = proc
             rc = proc.wait()
             with self.lock:
-                self.procs.pop(job.ident, None)
+                self.procs.pop(key, None)
             return rc
 
-        rc = run_attempts(job, start, self.log)
+        rc = run_attempts(job, start, plan.log)
         wall = time.perf_counter() - t0
         status = record_point(job, rc, wall)
         if status is None:  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
-            self.log(f"killed {job.ident} (signal {-rc if rc < 0 else rc - 128})")
+            plan.log(f"killed {job.ident} (signal {-rc if rc < 0 else rc - 128})")
             return
-        self.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
+        plan.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
         with self.lock:
-            self.ran.append(job.ident)
+            plan.result.ran.append(job.ident)
+
+
+@dataclass
+class SweepPlan:
+    """A sweep ready to run (:func:`plan_sweep`): its points, the jobs of those not finished,
+    its log, and the result that :func:`run_plans` and :func:`finish_sweep` fill in."""
+
+    out: Path
+    points: list[Point]
+    names: list[str]
+    paired: bool
+    todo: list[PointJob]
+    log: _Log
+    result: SweepResult
+
+
+def plan_sweep(
+    case_path: str | Path,
+    params: Sequence[str],
+    outdir: str | Path,
+    *,
+    base_overrides: Sequence[str] = (),
+    ranks: int = 1,
+    retry_failed: bool = False,
+    paired: bool = False,
+    echo: Callable[[str], None] | None = print,
+) -> SweepPlan:
+    """Check a sweep and find its points not yet finished, without running any
+    (arguments as for :func:`run_sweep`).
+
+    Raises:
+        CaseError: bad ``--param`` syntax or ranks, or a point whose case does not validate
+            (checked for every point).
+    """
+    case_path, out = Path(case_path), Path(outdir)
+    if ranks < 1:
+        raise CaseError("--np", ranks, "must be >= 1")
+    if not params:
+        raise CaseError("--param", "(none)", "give at least one --param " + SYNTAX)
+    load_case(case_path, base_overrides)  # file, syntax and base overrides
+    parsed = [parse_param(p) for p in params]
+    fprint = fingerprint(case_path, base_overrides)
+    points = build_points(parsed, fprint, paired=paired)
+    for pt in points:
+        load_case(case_path, [*base_overrides, *pt.overrides()])
+    (out / "points").mkdir(parents=True, exist_ok=True)
+    log = _Log(out / "sweep.log", echo)
+    _adopt_moved(points, out, log)
+    result = SweepResult(records=[])
+    todo = [
+        _point_job(case_path, out, base_overrides, fprint, ranks, pt)
+        for pt in _unfinished(points, out, fprint, retry_failed, result.skipped)
+    ]
+    log(
+        f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
+        f"{len(todo)} to run, ranks={ranks}"
+    )
+    return SweepPlan(out, points, [n for n, _ in parsed], paired, todo, log, result)
+
+
+def run_plans(plans: Sequence[SweepPlan], jobs: int) -> None:
+    """Run the unfinished points of ``plans`` as local processes in one queue, ``jobs`` at a
+    time: each sweep's points in order after the previous sweep's, each starting as soon as a
+    process ends, so that the last long run of one sweep shares the machine with the next
+    sweep's first runs rather than leaving cores idle.
+
+    Raises:
+        CaseError: ``jobs`` below 1.
+    """
+    if jobs < 1:
+        raise CaseError("--jobs", jobs, "must be >= 1")
+    _LocalRunner().run_all([(job, plan) for plan in plans for job in plan.todo], jobs)
+
+
+def finish_sweep(plan: SweepPlan) -> SweepResult:
+    """Gather every point's record into the plan's result; write summary.csv and sweep.png."""
+    _summarise(plan.result, plan.points, plan.names, plan.out, plan.paired, plan.log)
+    return plan.result
 
 
 def run_sweep(
@@ -167,44 +245,37 @@ def run_sweep(
         CaseError: bad ``--param`` syntax or engine, or a point whose case does not
             validate (checked for every point before anything runs).
     """
-    case_path, out = Path(case_path), Path(outdir)
-    for key, value in (("--jobs", jobs), ("--np", ranks)):
-        if value < 1:
-            raise CaseError(key, value, "must be >= 1")
+    if jobs < 1:
+        raise CaseError("--jobs", jobs, "must be >= 1")
     if engine not in ENGINES:
         raise CaseError("--engine", engine, "must be one of " + ", ".join(ENGINES))
     if engine_options and engine not in CLUSTER_ENGINES:
         raise CaseError("--engine-option", ", ".join(engine_options), "needs a cluster engine")
-    if not params:
-        raise CaseError("--param", "(none)", "give at least one --param " + SYNTAX)
-    load_case(case_path, base_overrides)  # file, syntax and base overrides
-    parsed = [parse_param(p) for p in params]
-    fprint = fingerprint(case_path, base_overrides)
-    points = build_points(parsed, fprint, paired=paired)
-    for pt in points:
-        load_case(case_path, [*base_overrides, *pt.overrides()])
-    (out / "points").mkdir(parents=True, exist_ok=True)
-    log = _Log(out / "sweep.log", echo)
-    _adopt_moved(points, out, log)
-    result = SweepResult(records=[])
-    todo = [
-        _point_job(case_path, out, base_overrides, fprint, ranks, pt)
-        for pt in _unfinished(points, out, fprint, retry_failed, result.skipped)
-    ]
-    log(
-        f"sweep {case_path}: {len(points)} point(s), {len(result.skipped)} finished, "
-        f"{len(todo)} to run, jobs={jobs}, ranks={ranks}, engine={engine}"
+    plan = plan_sweep(
+        case_path,
+        params,
+        outdir,
+        base_overrides=base_overrides,
+        ranks=ranks,
+        retry_failed=retry_failed,
+        paired=paired,
+        echo=echo,
     )
+    plan.log(f"running on {engine}, jobs={jobs}")
     if engine == "local":
-        result.ran = _LocalRunner(log).run_all(todo, jobs)
+        run_plans([plan], jobs)
     else:
-        folder = out / "submitit"
         options = dict(engine_options or {})
-        result.ran = run_on_cluster(
-            engine, todo, folder, jobs=jobs, ranks=ranks, options=options, log=log
+        plan.result.ran = run_on_cluster(
+            engine,
+            plan.todo,
+            plan.out / "submitit",
+            jobs=jobs,
+            ranks=ranks,
+            options=options,
+            log=plan.log,
         )
-    _summarise(result, points, [n for n, _ in parsed], out, paired, log)
-    return result
+    return finish_sweep(plan)
 
 
 def _adopt_moved(points: Sequence[Point], out: Path, log: Callable[[str], None]) -> None:
