@@ -31,6 +31,7 @@ through the solids' two-pass penalty (k_c = κ_s μ / H):
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import signal
 from typing import Any
@@ -49,6 +50,9 @@ from magfem.config import CaseError
 from magfem.errors import RunInterrupted
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.checkpoint import Checkpointer, RunControl, read_checkpoint
+from magfem.mechanics.contacts.self_contact import geometry
+from magfem.mechanics.contacts.self_contact.geometry import inside, reach
+from magfem.mechanics.contacts.self_contact.law import INSIDE
 from magfem.mechanics.contacts.self_contact.shell import nodal_rule
 from magfem.mechanics.simulation import Simulation
 from magfem.pipeline import build_simulation
@@ -579,3 +583,98 @@ def test_shell_self_contact_needs_cell_groups(comm):
     )
     with pytest.raises(CaseError, match="not a cell group"):
         build_simulation(case, comm, robot_mesh=_plates(comm, 0.0))
+
+
+@pytest.mark.parametrize("lift", [0.0, 4.0])
+def test_the_reach_filter_pairs_as_the_full_search(comm, monkeypatch, lift):
+    """The search skips the facets of slaves beyond every candidate's reach; the pairing
+    (masters, gaps, normals, master nodes, x̄) must be the full search's to the last bit. The
+    upper plate pressed in and sheared, its right half bent up by ``lift`` times its distance
+    from the middle (4: the right edge 2 mm up, beyond any facet's reach) so that the filter
+    drops part of the slaves: it examines fewer facets than the full search."""
+    search_module = importlib.import_module("magfem.mechanics.contacts.self_contact.search")
+    sim, u = _lower_clamped(comm)
+    X = u.function_space.tabulate_dof_coordinates()
+    upper = X[:, 2] > 0.5 * H
+    disp = np.zeros_like(X)
+    disp[upper, 0] = 0.3 * L / CELLS
+    disp[upper, 2] = -2 * ONSET * H + lift * np.maximum(X[upper, 0] - 0.5 * L, 0.0)
+    found, examined = [], []
+    for full in (False, True):
+        if full:
+            monkeypatch.setattr(
+                search_module, "reach", lambda gap, v, n, c: np.full(len(v), np.inf)
+            )
+        seen = [0]
+
+        def counting(point, corners, tolerance, seen=seen):
+            seen[0] += point.shape[0]
+            return geometry.inside(point, corners, tolerance)
+
+        monkeypatch.setattr(search_module, "inside", counting)
+        contact, _ = _contact_at(sim, disp)
+        p = contact.pairing
+        arrays = (p.partner, p.gap, p.nbar.x.array, p.vpartner, p.xbar.x.array)
+        found.append([a.copy() for a in arrays])
+        examined.append(comm.allreduce(seen[0], op=MPI.SUM))
+    for filtered, everything in zip(*found, strict=True):
+        np.testing.assert_array_equal(filtered, everything)
+    assert comm.allreduce(int(np.count_nonzero(found[0][0] >= 0)), op=MPI.SUM) > 0
+    if lift > 0:
+        assert examined[0] < examined[1]
+
+
+def _touching_points(corners, normal, gap, rng):
+    """Points x = foot + s n, |s| <= gap, whose foot on the plane of normal n through the
+    corners' centre passes :func:`inside` (a quadrilateral's foot through its projection on
+    a corner triangle): at the grown simplices' corners and at random inside them."""
+    t, nv = INSIDE * (1 - 1e-9), corners.shape[1]  # on the edge of inside, not over it
+    simplices = [(0, 1)] if nv == 2 else list(itertools.combinations(range(nv), 3))
+    centre = corners.mean(axis=1)
+    out = []
+    for simplex in simplices:
+        k = len(simplex)
+        bary = np.vstack([np.eye(k), rng.dirichlet(np.ones(k), 40)])
+        for b in (1 + k * t) * bary - t:  # barycentric >= -t, summing to 1
+            q = np.einsum("i,fia->fa", b, corners[:, list(simplex)])
+            if nv == 4:  # the foot on the best-fit plane projects onto q along n_T
+                a, b1, c = (corners[:, i] for i in simplex)
+                n_t = np.cross(b1 - a, c - a)
+                n_t /= np.linalg.norm(n_t, axis=1)[:, None]
+                lam = -np.einsum("fa,fa->f", q - centre, normal) / np.einsum(
+                    "fa,fa->f", n_t, normal
+                )
+                q = q + lam[:, None] * n_t
+            assert inside(q[:, None], corners[:, None], INSIDE).all()
+            out += [q + side * gap * normal for side in (-1.0, 0.0, 1.0)]
+    return out
+
+
+@pytest.mark.parametrize(("nv", "warp"), [(2, 0.0), (3, 0.0), (4, 0.0), (4, 0.15)])
+def test_reach_bounds_every_point_that_can_touch_a_facet(nv, warp):
+    """Points within ``gap`` of a facet's plane whose foot passes :func:`inside` are within
+    :func:`reach` of each of its corners: sampled at the grown simplices' extreme corners
+    and at random inside them, on stretched segments, triangles and flat and warped
+    (corners 0.15 of the size off a plane) quadrilaterals, gap 0 and 0.7."""
+    rng = np.random.default_rng(3)
+    gdim = 2 if nv == 2 else 3
+    if nv == 4:  # convex quadrilaterals: a rectangle's corners jittered, then warped
+        square = np.array([[-1.0, -1.0, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+        corners = square * [1.0, 3.0, 0.0] + rng.uniform(-0.3, 0.3, (200, 4, 3)) * [1, 1, 0]
+        corners[..., 2] = warp * rng.choice([-1.0, 1.0], (200, 4))
+        _, _, vt = np.linalg.svd(corners - corners.mean(axis=1, keepdims=True))
+        normal = vt[:, -1, :]
+    else:
+        corners = rng.uniform(-1.0, 1.0, (200, nv, gdim)) * ([1.0, 3.0, 0.1][:gdim])
+        edge = corners[:, 1] - corners[:, 0]
+        if nv == 2:
+            normal = np.stack([-edge[:, 1], edge[:, 0]], axis=1)
+        else:
+            normal = np.cross(edge, corners[:, 2] - corners[:, 0])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+    for gap in (0.0, 0.7):
+        points = _touching_points(corners, normal, gap, rng)
+        for v in range(nv):  # each corner as the candidate vertex
+            bound = reach(gap, corners[:, v], normal[:, None, :], corners[:, None])
+            for x in points:
+                assert np.all(np.linalg.norm(x - corners[:, v], axis=1) <= bound)

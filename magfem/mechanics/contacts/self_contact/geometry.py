@@ -11,9 +11,9 @@ import itertools
 import numpy as np
 import numpy.typing as npt
 
-from magfem.mechanics.contacts.self_contact.law import ADJACENT
+from magfem.mechanics.contacts.self_contact.law import ADJACENT, INSIDE
 
-__all__ = ["facet_normals", "facing", "inside"]
+__all__ = ["facet_normals", "facing", "inside", "reach"]
 
 
 def facet_normals(
@@ -129,3 +129,58 @@ def inside(
             & (1.0 - beta - gamma >= -tolerance)
         )
     return inside
+
+
+def reach(
+    gap: float,
+    vertices: npt.NDArray[np.float64],
+    normals: npt.NDArray[np.float64],
+    corners: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
+    """Per master vertex v: the farthest (m) a slave point x that touches a facet around it
+    can be from it, so that a slave farther than that from every candidate has no master.
+
+    x lies s = g + offset along the facet's unit normal n from its foot, |s| < ``gap``, and
+    the foot passes :func:`inside`: it, or for a quadrilateral its projection q on the
+    plane of one of the four corner triangles T, lies in the simplex grown about its
+    centroid by 1 + (its corners) INSIDE, whose farthest corner from v is P_T away. A
+    segment or triangle holds v: |x − v|² = s² + |foot − v|² ≤ gap² + P². A
+    quadrilateral is warped (corners up to w from its best-fit plane, v at w_v, T's plane
+    at θ to it): |foot − q| ≤ (w + E_T sin θ)/cos θ (E_T: T's grown extent from its first
+    corner) and |x − v|² ≤ gap² + (P_T + |foot − q|)² + 2 gap w_v. Returns the largest over
+    the facets around v, with 1e-9 of relative slack for round-off.
+
+    Args:
+        gap: bound on |g + offset| (m).
+        vertices: (vertices, gdim) current positions (m).
+        normals: (vertices, ADJACENT, gdim) unit normals of the facets around each vertex
+            (zero rows: padding).
+        corners: (vertices, ADJACENT, corners, gdim) current corners of those facets (m).
+    """
+    nv = corners.shape[-2]
+    rows, around = np.nonzero(np.any(normals != 0.0, axis=-1))  # the facets, not the padding
+    n, corner = normals[rows, around], corners[rows, around]  # (pairs, gdim), (pairs, nv, gdim)
+    v = vertices[rows][:, None, :]
+    centre = corner.mean(axis=1, keepdims=True)
+    worst = np.zeros(len(rows))
+    for simplex in [(0, 1)] if nv == 2 else itertools.combinations(range(nv), 3):
+        pts = corner[:, list(simplex), :]
+        middle = pts.mean(axis=1, keepdims=True)
+        grown = middle + (1.0 + len(simplex) * INSIDE) * (pts - middle)
+        far = np.linalg.norm(grown - v, axis=-1).max(axis=-1)
+        if nv == 4:
+            n_t = np.cross(pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 0])
+            length = np.linalg.norm(n_t, axis=-1)
+            cos = np.abs(np.einsum("pa,pa->p", n_t, n)) / np.maximum(length, 1e-300)
+            sin = np.sqrt(np.maximum(1.0 - cos**2, 0.0))
+            extent = np.linalg.norm(grown - pts[:, :1], axis=-1).max(axis=-1)
+            tilt = np.abs(np.einsum("pca,pa->pc", corner - centre, n)).max(axis=-1)
+            lift = tilt + extent * sin
+            far = far + np.divide(lift, cos, out=np.full_like(lift, np.inf), where=cos > 1e-6)
+        worst = np.maximum(worst, far)
+    square = gap**2 + worst**2
+    if nv == 4:  # v off the best-fit plane
+        square += 2.0 * gap * np.abs(np.einsum("pa,pa->p", v[:, 0] - centre[:, 0], n))
+    out = np.zeros(len(vertices))
+    np.maximum.at(out, rows, square)
+    return np.sqrt(out) * (1.0 + 1e-9)

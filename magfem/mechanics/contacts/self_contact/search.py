@@ -39,7 +39,10 @@ Search (closest point, nearest-node form).
     Nodes without a master have x̄ at their own position (no gap there).
     With ``within`` a group is also searched against itself: candidates
     closer at rest than its own exclusion are skipped before the nearest
-    CANDIDATES are examined (:mod:`.law`).
+    CANDIDATES are examined (:mod:`.law`). A slave farther from every
+    candidate than any facet around it could reach (:func:`.geometry.reach`)
+    has none, and its facets are not examined: where the surfaces are apart,
+    most of them.
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
@@ -71,13 +74,17 @@ from scipy.spatial import cKDTree
 from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.penalty import penalty_energy, penalty_ramp
-from magfem.mechanics.contacts.self_contact.geometry import facet_normals, facing, inside
+from magfem.mechanics.contacts.self_contact.geometry import (
+    facet_normals,
+    facing,
+    inside,
+    reach,
+)
 from magfem.mechanics.contacts.self_contact.law import (
     ADJACENT,
     CANDIDATES,
     FACING,
     INSIDE,
-    NEIGHBOURHOOD,
     SelfContactLaw,
 )
 from magfem.mechanics.contacts.self_contact.surfaces import ContactSurfaces
@@ -299,23 +306,6 @@ class SurfacePairing(ContactSurfaces):
                 nearest = min(nearest, float(cKDTree(gx[others]).query(gx[ends])[0].min()))
         return nearest - self.offset
 
-    def _clearance_ends(self) -> list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]:
-        """Per group, in the gathered order of the owned contact vertices: its vertices two
-        cells or more from every other group at rest, and the other groups' vertices
-        (collective; the reference configuration's part of :meth:`clearance`)."""
-        nodes = self.nodes[self.nodes < self.size_local]
-        parts = self.comm.allgather((self.node_label[nodes], self.reference[nodes]))
-        glabel = np.concatenate([p[0] for p in parts])
-        gref = np.concatenate([p[1] for p in parts]).reshape(-1, self.gdim)
-        out = []
-        for j in range(len(self.groups)):
-            mine, others = np.flatnonzero(glabel == j), np.flatnonzero(glabel != j)
-            if mine.size and others.size:
-                far = cKDTree(gref[others]).query(gref[mine])[0] >= NEIGHBOURHOOD * self.cell_size
-                mine = mine[far]
-            out.append((mine, others))
-        return out
-
     def _match(
         self,
         x: npt.NDArray[Any],
@@ -325,7 +315,7 @@ class SurfacePairing(ContactSurfaces):
         master: tuple[npt.NDArray[Any], ...],
         j: int,
         own: bool,
-    ) -> tuple[npt.NDArray[np.float64], ...]:
+    ) -> tuple[npt.NDArray[Any], ...]:
         """The facet of master group j that each slave vertex touches.
 
         Args:
@@ -353,6 +343,17 @@ class SurfacePairing(ContactSurfaces):
             far = np.linalg.norm(ref[:, None, :] - mref[idx], axis=-1) >= limit
             keep = np.argsort(~far, axis=1, kind="stable")[:, : min(CANDIDATES, k)]
             dist, idx, far = (np.take_along_axis(a, keep, axis=1) for a in (dist, idx, far))
+        # a pair has -band < g < cell; a slave beyond every candidate's reach has no master:
+        # skip its facets (exact, and most of the search where the surfaces are apart)
+        gap = max(abs(self.offset - law.band), float(self._diameter[j]) + self.offset)
+        active = np.flatnonzero((dist <= reach(gap, mx, mn, mc)[idx]).any(axis=1))
+        best = np.full(len(x), np.inf)
+        normal_out, g_out = np.zeros_like(x), np.zeros(len(x))
+        anchor = np.zeros(len(x), dtype=np.int64)
+        if active.size == 0:
+            return best, normal_out, g_out, anchor
+        x, n, ref, rim, far = x[active], n[active], ref[active], rim[active], far[active]
+        dist, idx = dist[active], idx[active]
         # every facet around each candidate: facing, gap to its plane, projection inside it
         around = mn[idx]  # (slaves, k, ADJACENT, gdim)
         d = x[:, None, :] - mx[idx]
@@ -372,8 +373,10 @@ class SurfacePairing(ContactSurfaces):
         normal = np.take_along_axis(around, choice[..., None, None], axis=2)[:, :, 0, :]
         g = np.take_along_axis(g, choice[..., None], axis=2)[..., 0]
         rows, first = np.arange(len(x)), np.argmax(valid, axis=1)
-        best = np.where(valid.any(axis=1), dist[rows, first], np.inf)
-        return best, normal[rows, first], g[rows, first], in_j[idx[rows, first]]
+        best[active] = np.where(valid.any(axis=1), dist[rows, first], np.inf)
+        normal_out[active], g_out[active] = normal[rows, first], g[rows, first]
+        anchor[active] = in_j[idx[rows, first]]
+        return best, normal_out, g_out, anchor
 
     def _far_in_reference(
         self,

@@ -183,6 +183,23 @@ class ContactSurfaces:
                 count = tree.query_ball_point(pts, self.own_exclusion[j], return_length=True)
                 self._crowd[j] = int(np.max(count))
 
+    def _clearance_ends(self) -> list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]:
+        """Per group, in the gathered order of the owned contact vertices: its vertices two
+        cells or more from every other group at rest, and the other groups' vertices
+        (collective; the reference configuration's part of :meth:`clearance`)."""
+        nodes = self.nodes[self.nodes < self.size_local]
+        parts = self.comm.allgather((self.node_label[nodes], self.reference[nodes]))
+        glabel = np.concatenate([p[0] for p in parts])
+        gref = np.concatenate([p[1] for p in parts]).reshape(-1, self.gdim)
+        out = []
+        for j in range(len(self.groups)):
+            mine, others = np.flatnonzero(glabel == j), np.flatnonzero(glabel != j)
+            if mine.size and others.size:
+                far = cKDTree(gref[others]).query(gref[mine])[0] >= NEIGHBOURHOOD * self.cell_size
+                mine = mine[far]
+            out.append((mine, others))
+        return out
+
     @property
     def cell_size(self) -> float:
         """a: the smallest of the groups' largest contact cells or facets, corner to corner (m)."""
