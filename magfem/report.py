@@ -5,9 +5,10 @@ The studies are data (:mod:`magfem.study`): one file per scene in
 (:mod:`magfem.sweep`, so an interrupted report resumes where it
 stopped) and the summary scalars to tabulate. ``magfem report --run`` runs
 what is missing (``--only ID`` restricts to some scenes); without ``--run`` it
-only reads finished runs. The page is rebuilt each time, except that with
-``--only`` the other scenes keep their section and summary row as the page
-has them (their runs may live on another machine); for each scene it gives
+only reads finished runs. The page is rebuilt each time, except that a scene
+keeps its section and summary row as the page has them when ``--only`` names
+others, or when it has no runs in the output folder and is not run (its runs
+live on another machine, or a fresh clone has none); for each scene it gives
 
 * the set-up: the case's description and command, the assumptions (every
   case-file line marked ``# ASSUMED``) and the missing physics (its
@@ -136,9 +137,11 @@ def build_report(
     ``retry_failed`` reruns points recorded as failed; ``jobs`` runs that many points at
     once, the scenes' points in one queue (:func:`magfem.sweep.run_plans`).
 
-    With ``only``, a scene not named keeps its row and section from the existing page
-    (rebuilt from ``out`` when the page lacks it), read after the runs: a page another
-    report wrote while these ran keeps that report's sections.
+    A scene keeps its row and section from the existing page (rebuilt from ``out`` when the
+    page lacks it) when ``only`` does not name it, or when it has no runs in ``out`` (no
+    ``out/<id>/points/``: they live on another machine, or were lost) and was not run. The
+    page is read after the runs: a page another report wrote while these ran keeps that
+    report's sections.
 
     Raises:
         CaseError: a bad study file, or an unknown scene id in ``only``.
@@ -163,11 +166,11 @@ def build_report(
     ran = run_studies(chosen, out, jobs=jobs, retry_failed=retry_failed, echo=echo)
     body: list[str] = []
     path = docs / "scenes.md"
-    kept = _page_scenes(path) if only else {}  # read now, not before the runs
+    kept = _page_scenes(path)  # read now, not before the runs
     walls: list[list[float]] = []  # each scene's runs' wall times, in the study's order
     unfinished = False
     for study in all_studies:
-        if study.ident not in only and study.ident in kept:
+        if _keeps(study.ident, kept, only, out, ran, echo):
             row, section = kept[study.ident]
             lines.append(row)
             body += section
@@ -195,6 +198,26 @@ def build_report(
     text = "\n".join([*lines, "", *body]) + "\n"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def _keeps(
+    ident: str,
+    kept: dict[str, tuple[str, list[str]]],
+    only: Sequence[str],
+    out: Path,
+    ran: dict[str, Any],
+    echo: Callable[[str], None] | None,
+) -> bool:
+    """Whether the scene ``ident`` keeps the page's row and section (:func:`build_report`)."""
+    if ident not in kept:
+        return False
+    if only and ident not in only:
+        return True
+    if ident in ran or (out / ident / "points").is_dir():
+        return False
+    if echo is not None:
+        echo(f"{ident}: no runs in {out / ident}; its section is kept as the page has it")
+    return True
 
 
 def _page_scenes(path: Path) -> dict[str, tuple[str, list[str]]]:

@@ -275,7 +275,8 @@ def test_report_run_runs_the_missing_point_and_tabulates_it(tmp_path, repo, monk
 
 def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo, monkeypatch):
     """``only``: the named scene is rebuilt from its runs, every other scene keeps its row and
-    section from the existing page, though its runs are not in ``out``."""
+    section from the existing page, though its runs are not in ``out``; without ``only``, so
+    does a scene without runs in ``out``, and one with a run folder is rebuilt."""
     monkeypatch.chdir(repo)
     docs = tmp_path / "docs"
     page = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
@@ -298,9 +299,17 @@ def test_report_only_keeps_the_other_scenes_as_the_page_has_them(tmp_path, repo,
     assert "| [five-arm](#five-arm) | predicted | 1/1 | 7 |" in text
     assert "## five-arm\n\nA row from elsewhere.\n" in text
     assert text.count("\n## ") == page.count("\n## ")  # every scene once, in its place
-    # a full report (no ``only``) rebuilds every scene from ``out``
+    # a full report (no ``only``) rebuilds every scene from its runs in ``out`` and keeps
+    # the page's section of a scene without runs there, saying so
+    said: list[str] = []
+    full = build_report(tmp_path / "out", docs=docs, echo=said.append).read_text()
+    assert "| [two-arm-20hz](#two-arm-20hz) | predicted | 2/2 | 6 |" in full
+    assert "## five-arm\n\nA row from elsewhere.\n" in full
+    assert f"five-arm: no runs in {tmp_path / 'out' / 'five-arm'}" in "\n".join(said)
+    (tmp_path / "out" / "five-arm" / "points").mkdir(parents=True)  # its runs, none finished
     full = build_report(tmp_path / "out", docs=docs, echo=None).read_text()
-    assert "| [five-arm](#five-arm) | missing | 0/– | 0 |" in full
+    assert "| [five-arm](#five-arm) | missing | 0/2 | 0 |" in full
+    assert "A row from elsewhere." not in full
 
 
 def test_report_only_keeps_a_section_another_report_wrote_during_the_runs(
