@@ -44,6 +44,7 @@ from dolfinx.fem import petsc as fem_petsc
 from dolfinx.mesh import CellType, create_unit_square
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.spatial import cKDTree
 
 from magfem.case import parse_case
 from magfem.config import CaseError
@@ -51,8 +52,13 @@ from magfem.errors import RunInterrupted
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.checkpoint import Checkpointer, RunControl, read_checkpoint
 from magfem.mechanics.contacts.self_contact import geometry
-from magfem.mechanics.contacts.self_contact.geometry import inside, reach
-from magfem.mechanics.contacts.self_contact.law import INSIDE
+from magfem.mechanics.contacts.self_contact.geometry import (
+    ball_pairs,
+    inside,
+    nearest_facing,
+    reach,
+)
+from magfem.mechanics.contacts.self_contact.law import FACING, INSIDE
 from magfem.mechanics.contacts.self_contact.shell import nodal_rule
 from magfem.mechanics.simulation import Simulation
 from magfem.pipeline import build_simulation
@@ -678,3 +684,35 @@ def test_reach_bounds_every_point_that_can_touch_a_facet(nv, warp):
             bound = reach(gap, corners[:, v], normal[:, None, :], corners[:, None])
             for x in points:
                 assert np.all(np.linalg.norm(x - corners[:, v], axis=1) <= bound)
+
+
+@pytest.mark.parametrize("two_sided", [False, True])
+def test_nodes_pair_with_their_nearest_facing_candidate_within_one_cell(two_sided):
+    """:func:`ball_pairs` and :func:`nearest_facing` against a loop over the slave nodes:
+    each takes, among the nodes within the radius of its anchor (at rest, an anchor shared by
+    many nodes), the nearest (current positions) whose normal is within 60° of opposing its
+    n̄, the first of equal distances; on a grid, so that distances tie."""
+    rng = np.random.default_rng(5)
+    grid = np.stack(np.meshgrid(np.arange(12.0), np.arange(12.0), [0.0]), -1).reshape(-1, 3)
+    index = np.arange(len(grid))[::-1].copy()  # candidate numbers are not tree numbers
+    tree = cKDTree(grid)
+    current = grid + rng.choice([0.0, 0.5], grid.shape)  # positions with exact ties
+    normals = rng.normal(size=grid.shape)
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    slaves = np.arange(0, 60, 2)
+    anchors = grid[rng.integers(0, 8, len(slaves)) * 13]  # few anchors, shared
+    here = rng.choice([0.0, 3.0, 6.0], (70, 3))
+    nbar = rng.normal(size=(70, 3)) * rng.choice([0.0, 1.0, 2.0], (70, 1))  # some zero
+    sizes, c = ball_pairs(tree, index, anchors, 2.5)
+    paired, partner = nearest_facing(slaves, sizes, c, nbar, normals, here, current, two_sided)
+    got = dict(zip(paired, partner, strict=True))
+    expected = {}
+    for s, a in zip(slaves, anchors, strict=True):
+        patch = index[np.asarray(tree.query_ball_point(a, r=2.5), dtype=np.int64)]
+        dots = normals[patch] @ nbar[s]
+        bound = -FACING * max(float(np.linalg.norm(nbar[s])), 1e-300)
+        patch = patch[(np.abs(dots) if two_sided else dots) > bound]
+        if patch.size:
+            distance = np.linalg.norm(current[patch] - here[s], axis=1)
+            expected[s] = patch[np.argmin(distance)]
+    assert got == expected and len(expected) > 5

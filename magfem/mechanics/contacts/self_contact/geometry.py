@@ -7,13 +7,15 @@ Pure array functions of the current positions (m) used by
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
-from magfem.mechanics.contacts.self_contact.law import ADJACENT, INSIDE
+from magfem.mechanics.contacts.self_contact.law import ADJACENT, FACING, INSIDE
 
-__all__ = ["facet_normals", "facing", "inside", "reach"]
+__all__ = ["ball_pairs", "facet_normals", "facing", "inside", "nearest_facing", "reach"]
 
 
 def facet_normals(
@@ -184,3 +186,58 @@ def reach(
     out = np.zeros(len(vertices))
     np.maximum.at(out, rows, square)
     return np.sqrt(out) * (1.0 + 1e-9)
+
+
+def ball_pairs(
+    tree: cKDTree, index: npt.NDArray[np.int64], points: npt.NDArray[np.float64], radius: float
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """The tree's points within ``radius`` of each of ``points``: per point their number,
+    and all their indices (through ``index``) one point after the other, each point's in the
+    tree's order. Points that repeat (slave nodes sharing a master vertex) are queried once.
+    """
+    distinct, which = np.unique(points, axis=0, return_inverse=True)
+    which = which.ravel()
+    patches = tree.query_ball_point(distinct, r=radius)
+    count = np.fromiter(map(len, patches), dtype=np.int64, count=len(patches))
+    flat = np.fromiter(itertools.chain.from_iterable(patches), np.int64, int(count.sum()))
+    sizes = count[which]
+    shift = np.repeat((np.cumsum(count) - count)[which] - (np.cumsum(sizes) - sizes), sizes)
+    return sizes, index[flat[shift + np.arange(int(sizes.sum()))]]
+
+
+def nearest_facing(
+    slaves: npt.NDArray[np.int64],
+    sizes: npt.NDArray[np.int64],
+    candidates: npt.NDArray[np.int64],
+    normal: npt.NDArray[Any],
+    candidate_normal: npt.NDArray[Any],
+    position: npt.NDArray[Any],
+    candidate_position: npt.NDArray[Any],
+    two_sided: bool,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Per slave node its nearest candidate (current positions) whose unit normal is within
+    60° of opposing the slave's n̄ (either way for ``two_sided``); the first of equals.
+
+    Args:
+        slaves: (slaves,) slave node indices; ``sizes`` their numbers of candidates and
+            ``candidates`` those, one slave after the other (:func:`ball_pairs`).
+        normal, position: per node n̄ (not unit; zero: no master) and current position (m).
+        candidate_normal, candidate_position: per candidate index its unit normal and
+            current position (m).
+
+    Returns:
+        the slaves that have one, and their candidates.
+    """
+    s = np.repeat(slaves, sizes)
+    dots = np.einsum("pa,pa->p", candidate_normal[candidates], normal[s])
+    bound = -FACING * np.maximum(np.linalg.norm(normal[slaves], axis=1), 1e-300)
+    ok = (np.abs(dots) if two_sided else dots) > np.repeat(bound, sizes)
+    c, s = candidates[ok], s[ok]
+    if len(s) == 0:
+        return s, c
+    distance = np.linalg.norm(candidate_position[c] - position[s], axis=1)
+    start = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])  # each slave's run
+    nearest = np.repeat(np.minimum.reduceat(distance, start), np.diff(np.r_[start, len(s)]))
+    hit = np.flatnonzero(distance == nearest)
+    first = hit[np.r_[True, s[hit][1:] != s[hit][:-1]]]
+    return s[first], c[first]

@@ -39,10 +39,8 @@ Search (closest point, nearest-node form).
     Nodes without a master have x̄ at their own position (no gap there).
     With ``within`` a group is also searched against itself: candidates
     closer at rest than its own exclusion are skipped before the nearest
-    CANDIDATES are examined (:mod:`.law`). A slave farther from every
-    candidate than any facet around it could reach (:func:`.geometry.reach`)
-    has none, and its facets are not examined: where the surfaces are apart,
-    most of them.
+    CANDIDATES are examined (:mod:`.law`). A slave beyond every candidate's
+    reach (:func:`.geometry.reach`) has none: its facets are not examined.
 
 Parallel.
     Each rank owns the vertices and nodes it owns; their positions, normals,
@@ -75,9 +73,11 @@ from magfem.config import CaseError
 from magfem.geometry.robot_mesh import RobotMesh
 from magfem.mechanics.contacts.penalty import penalty_energy, penalty_ramp
 from magfem.mechanics.contacts.self_contact.geometry import (
+    ball_pairs,
     facet_normals,
     facing,
     inside,
+    nearest_facing,
     reach,
 )
 from magfem.mechanics.contacts.self_contact.law import (
@@ -439,14 +439,9 @@ class SurfacePairing(ContactSurfaces):
             tree, index = self._node_tree[j]
             if slaves.size == 0 or index.size == 0:
                 continue
-            patches = tree.query_ball_point(anchor[slaves], r=self._diameter[j])
-            for s, patch in zip(slaves, patches, strict=True):
-                c = index[np.asarray(patch, dtype=np.int64)]
-                dots = mnormal[c] @ nbar[s]
-                bound = -FACING * max(float(np.linalg.norm(nbar[s])), 1e-300)
-                c = c[(np.abs(dots) if self.two_sided else dots) > bound]
-                if c.size:
-                    self.vpartner[s] = c[np.argmin(np.linalg.norm(position[c] - here[s], axis=1))]
+            sizes, c = ball_pairs(tree, index, anchor[slaves], self._diameter[j])
+            s_, c_ = nearest_facing(slaves, sizes, c, nbar, mnormal, here, position, self.two_sided)
+            self.vpartner[s_] = c_
         # a node deeper than the band has gone through its master, or faces the wrong part
         paired = np.flatnonzero(self.vpartner >= 0)
         n_hat = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
