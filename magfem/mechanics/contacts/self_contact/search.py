@@ -440,8 +440,10 @@ class SurfacePairing(ContactSurfaces):
             if slaves.size == 0 or index.size == 0:
                 continue
             sizes, c = ball_pairs(tree, index, anchor[slaves], self._diameter[j])
-            s_, c_ = nearest_facing(slaves, sizes, c, nbar, mnormal, here, position, self.two_sided)
-            self.vpartner[s_] = c_
+            node, master = nearest_facing(
+                slaves, sizes, c, nbar, mnormal, here, position, self.two_sided
+            )
+            self.vpartner[node] = master
         # a node deeper than the band has gone through its master, or faces the wrong part
         paired = np.flatnonzero(self.vpartner >= 0)
         n_hat = nbar[paired] / np.maximum(np.linalg.norm(nbar[paired], axis=1), 1e-300)[:, None]
