@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import re
 import shutil
 import sys
 from dataclasses import replace
@@ -119,7 +120,8 @@ def test_sweeps_in_one_queue_share_the_cores_in_order(tmp_path):
     the second sweep's points take the core the first sweep's long point leaves free, in
     their order, never more than 2 at once, each recorded in its own sweep. The points are
     stand-in processes (a 4 s one, three 0.2 s ones), so the order is the schedule's; the
-    three short ones end more than 2 s before the long one even at 0.5 s per start."""
+    three short ones end more than 2 s before the long one even at 0.5 s per start. Each end
+    is logged with the queue's count of ended runs."""
     case = tmp_path / "engine_probe.toml"
     case.write_text(tomli_w.dumps(CASE))
     log = tmp_path / "order.log"
@@ -143,9 +145,11 @@ def test_sweeps_in_one_queue_share_the_cores_in_order(tmp_path):
     ]
     running = [1 if e.startswith("start") else -1 for e in order]
     assert max(itertools.accumulate(running)) == 2
+    ended = []
     for plan in plans:
         assert sorted(plan.result.ran) == sorted(job.ident for job in plan.todo)
-        statuses = [(plan.out / "points" / job.ident / "point.json").is_file() for job in plan.todo]
-        assert all(statuses)
+        assert all((plan.out / "points" / job.ident / "point.json").is_file() for job in plan.todo)
+        ended += re.findall(r"\((\d) of 4 runs ended\)", (plan.out / "sweep.log").read_text())
+    assert sorted(ended) == ["1", "2", "3", "4"]  # the queue's progress, across its sweeps
     with pytest.raises(CaseError, match="--jobs"):
         run_plans(plans, 0)

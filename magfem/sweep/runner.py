@@ -88,11 +88,14 @@ class _LocalRunner:
     def __init__(self) -> None:
         self.procs: dict[int, subprocess.Popen[bytes]] = {}
         self.lock = threading.Lock()
+        self.ended = 0  # runs of the queue that ended (recorded or stopped)
+        self.total = 0
 
     def run_all(self, todo: Sequence[tuple[PointJob, SweepPlan]], jobs: int) -> None:
         """Run each job of ``todo`` (with the sweep it belongs to, whose log and ``ran`` list
         it updates). Ctrl-C stops the points running (our own child processes, by handle)
         and re-raises."""
+        self.total = len(todo)
         pool = ThreadPoolExecutor(max_workers=jobs)
         try:
             for fut in [pool.submit(self.run, job, plan) for job, plan in todo]:
@@ -126,12 +129,15 @@ class _LocalRunner:
         rc = run_attempts(job, start, plan.log)
         wall = time.perf_counter() - t0
         status = record_point(job, rc, wall)
-        if status is None:  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
-            plan.log(f"killed {job.ident} (signal {-rc if rc < 0 else rc - 128})")
-            return
-        plan.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s")
         with self.lock:
-            plan.result.ran.append(job.ident)
+            self.ended += 1
+            count = f"({self.ended} of {self.total} runs ended)"
+            if status is not None:
+                plan.result.ran.append(job.ident)
+        if status is None:  # killed, or stopped by SIGINT/SIGTERM (128 + signal)
+            plan.log(f"killed {job.ident} (signal {-rc if rc < 0 else rc - 128}) {count}")
+            return
+        plan.log(f"{status} {job.ident} rc={rc} wall={wall:.1f}s {count}")
 
 
 @dataclass
