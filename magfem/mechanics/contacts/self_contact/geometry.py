@@ -134,7 +134,7 @@ def inside(
 
 
 def reach(
-    gap: float,
+    gap: float | npt.NDArray[np.float64],
     vertices: npt.NDArray[np.float64],
     normals: npt.NDArray[np.float64],
     corners: npt.NDArray[np.float64],
@@ -153,7 +153,7 @@ def reach(
     the facets around v, with 1e-9 of relative slack for round-off.
 
     Args:
-        gap: bound on |g + offset| (m).
+        gap: bound on |g + offset| (m), one for all or one per vertex.
         vertices: (vertices, gdim) current positions (m).
         normals: (vertices, ADJACENT, gdim) unit normals of the facets around each vertex
             (zero rows: padding).
@@ -180,6 +180,7 @@ def reach(
             lift = tilt + extent * sin
             far = far + np.divide(lift, cos, out=np.full_like(lift, np.inf), where=cos > 1e-6)
         worst = np.maximum(worst, far)
+    gap = np.broadcast_to(np.asarray(gap, dtype=np.float64), (len(vertices),))[rows]
     square = gap**2 + worst**2
     if nv == 4:  # v off the best-fit plane
         square += 2.0 * gap * np.abs(np.einsum("pa,pa->p", v[:, 0] - centre[:, 0], n))

@@ -261,7 +261,9 @@ class SurfacePairing(ContactSurfaces):
         partner = np.full(nodes.size, -1, dtype=np.int32)
         gap = np.zeros(nodes.size)
         anchor = np.zeros(nodes.size, dtype=np.int64)
-        master = (gx, gn, glabel, gref, gc)
+        # a pair has -band < g < its master group's largest cell: each vertex's reach
+        bound = np.maximum(abs(self.offset - self.law.band), self._diameter + self.offset)
+        master = (gx, gn, glabel, gref, gc, reach(bound[glabel], gx, gn, gc))
         for j in range(len(self.groups)):
             for own in (False, True):
                 slaves = np.flatnonzero((label == j) == own)
@@ -322,7 +324,7 @@ class SurfacePairing(ContactSurfaces):
             x, n, ref: (slaves, gdim) current positions, unit normals, reference positions.
             rim: (slaves,) the slave touches edge-on too: it need not face the master.
             master: the gathered vertices (positions, normals of the facets around,
-                groups, reference positions, corners of the facets around).
+                groups, reference positions, corners of the facets around, reach).
             j: the master group.
             own: the slaves belong to group j (its own neighbourhood is excluded).
 
@@ -330,7 +332,7 @@ class SurfacePairing(ContactSurfaces):
             per slave the distance to the paired master vertex (m; inf: none), n̄, the gap
             and the master vertex (index in the gathered vertices).
         """
-        gx, gn, glabel, gref, gc = master
+        gx, gn, glabel, gref, gc, greach = master
         in_j = np.flatnonzero(glabel == j)
         mx, mn, mref, mc = gx[in_j], gn[in_j], gref[in_j], gc[in_j]
         law = self.law
@@ -343,10 +345,9 @@ class SurfacePairing(ContactSurfaces):
             far = np.linalg.norm(ref[:, None, :] - mref[idx], axis=-1) >= limit
             keep = np.argsort(~far, axis=1, kind="stable")[:, : min(CANDIDATES, k)]
             dist, idx, far = (np.take_along_axis(a, keep, axis=1) for a in (dist, idx, far))
-        # a pair has -band < g < cell; a slave beyond every candidate's reach has no master:
-        # skip its facets (exact, and most of the search where the surfaces are apart)
-        gap = max(abs(self.offset - law.band), float(self._diameter[j]) + self.offset)
-        active = np.flatnonzero((dist <= reach(gap, mx, mn, mc)[idx]).any(axis=1))
+        # a slave beyond every candidate's reach has no master: skip its facets (exact, and
+        # most of the search where the surfaces are apart)
+        active = np.flatnonzero((dist <= greach[in_j][idx]).any(axis=1))
         best = np.full(len(x), np.inf)
         normal_out, g_out = np.zeros_like(x), np.zeros(len(x))
         anchor = np.zeros(len(x), dtype=np.int64)
