@@ -137,7 +137,8 @@ def test_sweeps_in_one_queue_share_the_cores_in_order(tmp_path):
     run_plans(plans, 2)
     events = log.read_text().split()
     order = [f"{what} {who}" for what, who in zip(events[::2], events[1::2], strict=True)]
-    assert order[0] == "start long0" and order[-1] == "end long0"
+    # long0 and short0 start together: which writes its line first is the OS's choice.
+    assert sorted(order[:2]) == ["start long0", "start short0"] and order[-1] == "end long0"
     assert [e for e in order if e.startswith("start short")] == [
         "start short0",
         "start short1",
